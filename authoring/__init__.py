@@ -1,0 +1,1 @@
+"""crowdweave authoring: offline tools that turn motion data into runtime assets."""
