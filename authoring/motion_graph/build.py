@@ -1,0 +1,205 @@
+"""Build a snap-together motion graph from takes (issue 3; paper 000 sections 3.1, 3.3, 4).
+
+Pipeline: takes (30 Hz clips + per-frame labels) -> joint positions -> windowed point-cloud
+features -> chunked distance, row-wise local minima under the threshold -> greedy hub poses
+-> snap every take to its hub occurrences -> cut into edges -> states and labels -> prune
+to strongly connected state subgraphs -> per-edge tables -> :class:`MotionGraph`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from runtime.motion import Clip, Skeleton, SkeletonMismatchError
+from runtime.motion.graph import MotionGraph, edge_tables
+
+from .distance import DEFAULT_JOINT_WEIGHTS, frame_features
+from .hubs import find_candidates, pick_hubs
+from .labels import NODE_LABEL, STATES, TRANSITIONS, state_classes, state_of_label
+from .snap import cut_edges, snap_take
+
+__all__ = ["Take", "BuildParams", "build_graph", "prune"]
+
+
+@dataclass
+class Take:
+    name: str
+    clip: Clip                 # 30 Hz (or the graph's fps), world placement irrelevant
+    labels: list[str]          # one per frame
+    path: str = ""
+
+
+@dataclass
+class BuildParams:
+    fps: float = 30.0
+    threshold_cm: float = 6.0        # RMS point-cloud distance below which frames match
+    half_window: int = 4             # distance window: 2 * half_window + 1 frames
+    min_edge_frames: int = 12        # occurrences (and so edges) at least this far apart
+    min_occurrences: int = 3
+    max_hubs: int = 40
+    snap_window: int = 8             # frames over which the snap displacement fades
+    min_degree: int = 2              # in/out degree within the state subgraph after pruning
+    joint_weights: dict = field(default_factory=lambda: dict(DEFAULT_JOINT_WEIGHTS))
+
+
+def _joint_weights(sk: Skeleton, table: dict) -> np.ndarray:
+    return np.array([float(table.get(n, 1.0)) for n in sk.names])
+
+
+def build_graph(takes: list[Take], params: BuildParams | None = None, progress=None, log=print) -> MotionGraph:
+    params = params or BuildParams()
+    if not takes:
+        raise ValueError("no takes to build a graph from")
+    sk = takes[0].clip.skeleton
+    for t in takes[1:]:
+        if not t.clip.skeleton.same_family(sk):
+            raise SkeletonMismatchError(
+                f"skeleton family mismatch: {t.path or t.name} is {t.clip.skeleton.family}, "
+                f"{takes[0].path or takes[0].name} is {sk.family}; retarget before mixing")
+        if abs(t.clip.fps - params.fps) > 1e-9:
+            raise ValueError(f"{t.path or t.name}: take is at {t.clip.fps} fps, graph at {params.fps}")
+        if len(t.labels) != t.clip.num_frames:
+            raise ValueError(f"{t.path or t.name}: {len(t.labels)} labels for {t.clip.num_frames} frames")
+
+    # -- distance features and transition candidates ------------------------------------------
+    positions = [t.clip.positions(origin=np.zeros(3)) for t in takes]
+    feats = frame_features(positions, _joint_weights(sk, params.joint_weights), params.half_window)
+    labels = [lab for t in takes for lab in t.labels]
+    cls, cls_names, compatible = state_classes(labels)
+    S = len(STATES)
+    is_state = cls < S
+    threshold = (params.threshold_cm / 100.0) ** 2
+    cand = find_candidates(feats, threshold, cls, compatible, row_ok=feats.valid & is_state,
+                           col_ok=feats.valid, band=params.min_edge_frames, progress=progress)
+    hubs = pick_hubs(feats, cand, params.min_edge_frames, params.min_occurrences, params.max_hubs,
+                     hub_ok=feats.valid & is_state)
+    if not hubs:
+        raise ValueError("no hub poses found: the takes share no pose below the threshold "
+                         f"({params.threshold_cm} cm); raise --threshold or add data")
+    log(f"  {len(hubs)} hub poses from {len(cand.cols)} transition candidates")
+
+    # -- snap and cut ------------------------------------------------------------------------
+    offsets = np.concatenate([[0], np.cumsum([t.clip.num_frames for t in takes])])
+    take_of = feats.take
+    rot_all = np.concatenate([t.clip.rotations for t in takes]).astype(np.float64)
+    height_all = np.concatenate([t.clip.root_height for t in takes])
+    hub_rot = np.stack([rot_all[h.frame] for h in hubs])
+    hub_height = np.array([height_all[h.frame] for h in hubs])
+    occ_frame = np.concatenate([h.occurrences for h in hubs])
+    occ_hub = np.concatenate([np.full(len(h.occurrences), k) for k, h in enumerate(hubs)])
+    edges = []   # (src, dst, take, start, end, clip)
+    for ti, t in enumerate(takes):
+        m = take_of[occ_frame] == ti
+        if m.sum() < 2:
+            continue
+        local = occ_frame[m] - offsets[ti]
+        hk = occ_hub[m]
+        snapped = snap_take(t.clip, local, hub_rot[hk], hub_height[hk], params.snap_window)
+        for a, b, s, e, c in cut_edges(snapped, local, hk):
+            edges.append((a, b, ti, s, e, c))
+    if not edges:
+        raise ValueError("no edges: no take passes through two hub occurrences")
+
+    # -- states and labels -----------------------------------------------------------------------
+    node_state = np.array([STATES.index(cls_names[cls[h.frame]]) for h in hubs])
+    node_labels = []
+    for h in hubs:
+        labs = sorted({NODE_LABEL.get(labels[o], labels[o]) for o in h.occurrences if labels[o] not in TRANSITIONS})
+        node_labels.append(labs)
+    edge_labels, edge_state = [], []
+    for a, b, ti, s, e, c in edges:
+        labs = takes[ti].labels[s:e + 1]
+        uniq = sorted(set(labs))
+        edge_labels.append(uniq)
+        states = {state_of_label(x) for x in uniq}
+        if None in states or node_state[a] != node_state[b] or len(states) > 1:
+            edge_state.append(-1)   # transition between states
+        else:
+            edge_state.append(STATES.index(states.pop()))
+    edge_state = np.array(edge_state)
+
+    src = np.array([x[0] for x in edges])
+    dst = np.array([x[1] for x in edges])
+    keep_nodes, keep_edges = prune(len(hubs), src, dst, node_state, edge_state, params.min_degree)
+    n_pruned_edges = int(len(edges) - keep_edges.sum())
+    log(f"  {len(edges)} edges, {n_pruned_edges} pruned; {int(keep_nodes.sum())}/{len(hubs)} nodes kept")
+    if not keep_nodes.any():
+        raise ValueError("pruning removed every node: the data has no strongly connected locomotion")
+    new_id = -np.ones(len(hubs), dtype=np.int64)
+    new_id[keep_nodes] = np.arange(keep_nodes.sum())
+    kept = [k for k in range(len(edges)) if keep_edges[k]]
+    clips = [edges[k][5] for k in kept]
+    meta_edges = [{"take": takes[edges[k][2]].name, "start": edges[k][3], "end": edges[k][4]} for k in kept]
+    nodes_kept = np.flatnonzero(keep_nodes)
+    return MotionGraph.from_clips(
+        skeleton=sk, fps=params.fps,
+        node_rotations=hub_rot[nodes_kept].astype(np.float32), node_height=hub_height[nodes_kept],
+        node_state=node_state[nodes_kept], node_labels=[node_labels[n] for n in nodes_kept],
+        edge_src=new_id[src[kept]], edge_dst=new_id[dst[kept]], edge_state=edge_state[kept],
+        edge_labels=[edge_labels[k] for k in kept], clips=clips,
+        meta={"sources": [t.path or t.name for t in takes], "edge_origin": meta_edges,
+              "pruned_edges": n_pruned_edges, "pruned_nodes": int(len(hubs) - keep_nodes.sum()),
+              "hub_frames": [{"take": takes[take_of[h.frame]].name, "frame": int(h.frame - offsets[take_of[h.frame]]),
+                              "occurrences": int(len(h.occurrences))} for h in np.array(hubs, dtype=object)[nodes_kept]],
+              "params": {k: v for k, v in params.__dict__.items() if k != "joint_weights"},
+              "candidates": int(len(cand.cols)), "pairs_evaluated": int(cand.pairs_evaluated)})
+
+
+def _scc_largest(n, src, dst, mask_nodes, mask_edges):
+    """Boolean mask of the nodes in the largest strongly connected component of the subgraph."""
+    e = mask_edges & mask_nodes[src] & mask_nodes[dst]
+    if not e.any():
+        return np.zeros(n, dtype=bool)
+    g = coo_matrix((np.ones(e.sum()), (src[e], dst[e])), shape=(n, n)).tocsr()
+    _, lab = connected_components(g, directed=True, connection="strong")
+    # only components that actually contain an edge (a lone node is its own component)
+    has_edge = np.zeros(n, dtype=bool)
+    has_edge[src[e]] = True
+    cand = lab[mask_nodes & has_edge]
+    if len(cand) == 0:
+        return np.zeros(n, dtype=bool)
+    sizes = np.bincount(cand, minlength=lab.max() + 1)
+    # ties: the component with the lowest node index
+    best = int(np.argmax(sizes))
+    return (lab == best) & mask_nodes
+
+
+def prune(n_nodes, src, dst, node_state, edge_state, min_degree=2):
+    """Dead-end trimming that keeps state changes possible (paper 000 sections 3.2 and 4).
+
+    Repeats until nothing changes:
+    1. per state, keep only the largest strongly connected component of that state's
+       subgraph, and drop nodes whose in- or out-degree inside it is below ``min_degree``;
+    2. over the whole graph (state edges plus transition edges between kept nodes), keep
+       the largest strongly connected component, so that walk -> sit -> walk and
+       walk -> pick up -> carry -> put down -> walk remain possible.
+    Returns (keep_nodes (N,) bool, keep_edges (E,) bool).
+    """
+    src = np.asarray(src)
+    dst = np.asarray(dst)
+    keep = np.ones(n_nodes, dtype=bool)
+    while True:
+        before = keep.copy()
+        for s in range(len(STATES)):
+            in_s = keep & (node_state == s)
+            if not in_s.any():
+                continue
+            em = edge_state == s
+            while True:
+                comp = _scc_largest(n_nodes, src, dst, in_s, em)
+                e = em & comp[src] & comp[dst]
+                outdeg = np.bincount(src[e], minlength=n_nodes)
+                indeg = np.bincount(dst[e], minlength=n_nodes)
+                ok = comp & (outdeg >= min_degree) & (indeg >= min_degree)
+                if np.array_equal(ok, in_s):
+                    break
+                in_s = ok
+            keep &= ~((node_state == s) & ~in_s)
+        keep &= _scc_largest(n_nodes, src, dst, keep, np.ones(len(src), dtype=bool))
+        if np.array_equal(keep, before):
+            break
+    keep_edges = keep[src] & keep[dst]
+    return keep, keep_edges

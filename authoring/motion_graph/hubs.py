@@ -1,0 +1,124 @@
+"""Hub poses for snap-together motion graphs (Gleicher, Shin, Kovar, Jepsen 2003).
+
+1. Transition candidates: for every frame ``i`` the frames ``j`` where ``D(i, .)`` has a
+   local minimum below the threshold (one per pass of the motion through ``i``'s pose),
+   found chunk by chunk from :mod:`distance` so the full matrix never exists.
+2. Greedy hub picking: the frame with the most candidate matches becomes a hub; its matches
+   (thinned to be ``min_gap`` frames apart) are its *occurrences*; frames around every
+   occurrence are taken out; repeat while a frame still has ``min_occurrences`` matches.
+
+Frames may only match frames of a compatible locomotion state (a "carry" frame never
+becomes an occurrence of a walking hub), see :mod:`labels`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .distance import FrameFeatures, distance_rows
+
+__all__ = ["Candidates", "find_candidates", "pick_hubs", "Hub"]
+
+
+@dataclass
+class Candidates:
+    """Sparse row-wise local minima below the threshold (CSR layout)."""
+    indptr: np.ndarray   # (N+1,)
+    cols: np.ndarray     # (nnz,)
+    dist: np.ndarray     # (nnz,)
+    pairs_evaluated: int
+
+
+@dataclass
+class Hub:
+    frame: int                 # global frame index of the hub's defining pose
+    occurrences: np.ndarray    # global frame indices (sorted), includes ``frame``
+    distances: np.ndarray      # D(frame, occurrence)
+
+
+def find_candidates(f: FrameFeatures, threshold: float, state_cls: np.ndarray, compatible: np.ndarray,
+                    row_ok: np.ndarray, col_ok: np.ndarray, band: int, chunk_bytes: int = 256 << 20,
+                    progress=None) -> Candidates:
+    """Row-wise local minima of D below ``threshold``.
+
+    state_cls: (N,) state class of every frame; compatible: (S, S) bool, which classes may
+    match (rows x cols);
+    row_ok/col_ok: (N,) frames allowed as hubs / as occurrences;
+    band: frames of the same take closer than this never match (trivial neighbours).
+    """
+    N = len(f.sq)
+    chunk = int(max(16, min(N, chunk_bytes // max(1, 8 * 4 * N))))
+    indptr = np.zeros(N + 1, dtype=np.int64)
+    cols_l, dist_l = [], []
+    for s in range(0, N, chunk):
+        e = min(N, s + chunk)
+        D, _ = distance_rows(f, slice(s, e))
+        rows = np.arange(s, e)
+        # forbid trivial neighbours and incompatible / invalid columns
+        same_take = f.take[rows][:, None] == f.take[None, :]
+        near = np.abs(rows[:, None] - np.arange(N)[None, :]) < band
+        bad = (same_take & near) | ~col_ok[None, :] | ~compatible[state_cls[rows]][:, state_cls]
+        D[bad] = np.inf
+        # local minima along the row, inside one take (take borders count as +inf)
+        left = np.concatenate([np.full((e - s, 1), np.inf), D[:, :-1]], axis=1)
+        right = np.concatenate([D[:, 1:], np.full((e - s, 1), np.inf)], axis=1)
+        border_l = np.concatenate([[True], f.take[1:] != f.take[:-1]])
+        border_r = np.concatenate([f.take[1:] != f.take[:-1], [True]])
+        left[:, border_l] = np.inf
+        right[:, border_r] = np.inf
+        is_min = (D <= left) & (D < right) & (D < threshold) & row_ok[rows][:, None]
+        r, c = np.nonzero(is_min)
+        counts = np.bincount(r, minlength=e - s)
+        indptr[s + 1:e + 1] = counts
+        cols_l.append(c.astype(np.int64))
+        dist_l.append(D[r, c])
+        if progress is not None:
+            progress(e - s)
+    indptr = np.cumsum(indptr)
+    return Candidates(indptr, np.concatenate(cols_l) if cols_l else np.zeros(0, np.int64),
+                      np.concatenate(dist_l) if dist_l else np.zeros(0), N * N)
+
+
+def _thin(cols: np.ndarray, dist: np.ndarray, min_gap: int, take: np.ndarray):
+    """Keep the best matches at least ``min_gap`` frames apart (non-maximum suppression)."""
+    order = np.argsort(dist, kind="stable")
+    kept = []
+    for k in order:
+        c = cols[k]
+        if all(abs(c - q) >= min_gap or take[c] != take[q] for q in kept):
+            kept.append(c)
+    kept = np.array(sorted(kept), dtype=np.int64)
+    return kept
+
+
+def pick_hubs(f: FrameFeatures, cand: Candidates, min_gap: int, min_occurrences: int = 3,
+              max_hubs: int = 40, hub_ok: np.ndarray | None = None) -> list[Hub]:
+    """Greedy hub selection (see module docstring). Deterministic: ties go to the lowest frame."""
+    N = len(f.sq)
+    avail = np.ones(N, dtype=bool)
+    hub_ok = np.ones(N, dtype=bool) if hub_ok is None else hub_ok
+    row_of = np.repeat(np.arange(N), np.diff(cand.indptr))
+    hubs: list[Hub] = []
+    while len(hubs) < max_hubs:
+        live = avail[cand.cols] & avail[row_of]
+        counts = np.bincount(row_of[live], minlength=N)
+        counts[~(avail & hub_ok)] = 0
+        h = int(np.argmax(counts))
+        if counts[h] + 1 < min_occurrences:
+            break
+        sl = slice(cand.indptr[h], cand.indptr[h + 1])
+        m = live[sl]
+        cols = np.concatenate([[h], cand.cols[sl][m]])
+        dist = np.concatenate([[0.0], cand.dist[sl][m]])
+        occ = _thin(cols, dist, min_gap, f.take)
+        if len(occ) < min_occurrences:
+            avail[h] = False
+            continue
+        d = distance_rows(f, slice(h, h + 1), occ)[0][0]
+        hubs.append(Hub(h, occ, d))
+        for o in occ:
+            lo, hi = max(0, o - min_gap + 1), min(N, o + min_gap)
+            same = f.take[lo:hi] == f.take[o]
+            avail[lo:hi][same] = False
+    return hubs

@@ -1,0 +1,229 @@
+"""MotionGraph: the runtime form of a snap-together motion graph (paper 000, Figure 1).
+
+Nodes are hub poses shared by the end of every incoming clip and the start of every
+outgoing clip; edges are clips. All edge frames live in flat arrays (structure of arrays)
+indexed through ``edge_start``, so synthesis gathers frames of many edges in one numpy call.
+
+Per-edge tables the synthesis needs (issue 3, point 4) are precomputed:
+``edge_duration`` (s), ``edge_disp`` (dx, dz, dheading: the planar rigid transform the edge
+applies, in its start frame), the per-frame root path (``frame_xz``, ``frame_heading``
+relative to the edge start), per-frame bounding cylinder (``frame_radius`` about the root's
+vertical axis, ``frame_top``), and labels.
+
+Pack: kind ``"motion_graph"``, version :data:`PACK_VERSION`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..assets import AssetError, load_pack, save_pack
+from .clip import Clip
+from .fk import end_site_positions, forward_kinematics
+from .skeleton import Skeleton
+
+__all__ = ["MotionGraph", "PACK_KIND", "PACK_VERSION", "STATES", "edge_tables"]
+
+PACK_KIND = "motion_graph"
+PACK_VERSION = 1
+STATES = ("walking", "carrying", "sitting")
+TRANSITION = -1  # edge_state of edges that change state
+
+
+def edge_tables(clip: Clip):
+    """Per-frame bounding cylinder of a clip in its local frame: radius about the root's
+    vertical axis (joints and end sites) and top height. Returns (radius (F,), top (F,))."""
+    pos, rot = clip.world_root(origin=np.zeros(3))
+    gr, gp = forward_kinematics(clip.skeleton, pos, clip.local_rotations_world_root(np.zeros(3)))
+    ends = end_site_positions(clip.skeleton, gr, gp)
+    pts = np.concatenate([gp, ends], axis=1)
+    d = pts[..., [0, 2]] - pos[:, None, [0, 2]]
+    radius = np.sqrt(np.max(np.sum(d * d, axis=-1), axis=1))
+    return radius, pts[..., 1].max(axis=1)
+
+
+@dataclass
+class MotionGraph:
+    skeleton: Skeleton
+    fps: float
+    node_rotations: np.ndarray      # (N, J, 4) float32 hub poses (root entry heading-free)
+    node_height: np.ndarray         # (N,)
+    node_state: np.ndarray          # (N,) int index into STATES
+    node_labels: list               # N lists of str
+    edge_src: np.ndarray            # (E,) int
+    edge_dst: np.ndarray            # (E,) int
+    edge_state: np.ndarray          # (E,) int, -1 = transition between states
+    edge_labels: list               # E lists of str
+    edge_start: np.ndarray          # (E+1,) offsets into the frame arrays
+    frame_rotations: np.ndarray     # (T, J, 4) float32
+    frame_xz: np.ndarray            # (T, 2) root path relative to the edge start
+    frame_heading: np.ndarray       # (T,)
+    frame_height: np.ndarray        # (T,)
+    frame_radius: np.ndarray        # (T,) float32
+    frame_top: np.ndarray           # (T,) float32
+    meta: dict = field(default_factory=dict)
+    path: str | None = None
+
+    def __post_init__(self):
+        self.edge_frames = np.diff(self.edge_start)
+        self.edge_duration = (self.edge_frames - 1) / self.fps
+        last = self.edge_start[1:] - 1
+        self.edge_disp = np.stack([self.frame_xz[last, 0], self.frame_xz[last, 1], self.frame_heading[last]], axis=1)
+        self.edge_radius = np.maximum.reduceat(self.frame_radius, self.edge_start[:-1]) if len(self.edge_src) else np.zeros(0)
+        # parallel edges: same (src, dst)
+        key = self.edge_src * max(1, self.num_nodes) + self.edge_dst
+        _, self.edge_pair, counts = np.unique(key, return_inverse=True, return_counts=True)
+        self.pair_count = counts
+        order = np.argsort(self.edge_src, kind="stable")
+        self._out_order = order
+        self._out_ptr = np.searchsorted(self.edge_src[order], np.arange(self.num_nodes + 1))
+
+    # -- sizes -----------------------------------------------------------------------------
+    @property
+    def num_nodes(self) -> int:
+        return len(self.node_height)
+
+    @property
+    def num_edges(self) -> int:
+        return len(self.edge_src)
+
+    @property
+    def total_seconds(self) -> float:
+        return float(self.edge_duration.sum())
+
+    # -- queries ------------------------------------------------------------------------------
+    def out_edges(self, node: int) -> np.ndarray:
+        return self._out_order[self._out_ptr[node]:self._out_ptr[node + 1]]
+
+    def in_edges(self, node: int) -> np.ndarray:
+        return np.flatnonzero(self.edge_dst == node)
+
+    def parallel_edges(self, edge: int) -> np.ndarray:
+        """Edges between the same two nodes as ``edge`` (itself included)."""
+        return np.flatnonzero(self.edge_pair == self.edge_pair[edge])
+
+    def nodes_with_label(self, label: str) -> np.ndarray:
+        return np.array([i for i, labs in enumerate(self.node_labels) if label in labs], dtype=np.int64)
+
+    def node_labels_all(self) -> list[str]:
+        return sorted({lab for labs in self.node_labels for lab in labs})
+
+    def state_index(self, state: str) -> int:
+        return STATES.index(state)
+
+    def edges_in_state(self, state: int | str) -> np.ndarray:
+        s = self.state_index(state) if isinstance(state, str) else state
+        return np.flatnonzero(self.edge_state == s)
+
+    def edge_clip(self, e: int) -> Clip:
+        a, b = self.edge_start[e], self.edge_start[e + 1]
+        return Clip(self.skeleton, self.fps, self.frame_xz[a:b], self.frame_heading[a:b],
+                    self.frame_height[a:b], self.frame_rotations[a:b])
+
+    def node_pose_clip(self, n: int) -> Clip:
+        """A one-frame clip of a hub pose (for previews and tests)."""
+        return Clip(self.skeleton, self.fps, np.zeros((1, 2)), np.zeros(1), self.node_height[n:n + 1],
+                    self.node_rotations[n:n + 1])
+
+    # -- construction --------------------------------------------------------------------------
+    @classmethod
+    def from_clips(cls, skeleton, fps, node_rotations, node_height, node_state, node_labels,
+                   edge_src, edge_dst, edge_state, edge_labels, clips, meta=None) -> "MotionGraph":
+        starts = np.concatenate([[0], np.cumsum([c.num_frames for c in clips])]).astype(np.int64)
+        radius, top = zip(*(edge_tables(c) for c in clips)) if clips else ((), ())
+        return cls(
+            skeleton=skeleton, fps=float(fps),
+            node_rotations=np.asarray(node_rotations, dtype=np.float32),
+            node_height=np.asarray(node_height, dtype=np.float64),
+            node_state=np.asarray(node_state, dtype=np.int64), node_labels=[list(x) for x in node_labels],
+            edge_src=np.asarray(edge_src, dtype=np.int64), edge_dst=np.asarray(edge_dst, dtype=np.int64),
+            edge_state=np.asarray(edge_state, dtype=np.int64), edge_labels=[list(x) for x in edge_labels],
+            edge_start=starts,
+            frame_rotations=np.concatenate([c.rotations for c in clips]).astype(np.float32),
+            frame_xz=np.concatenate([c.root_xz for c in clips]),
+            frame_heading=np.concatenate([c.root_heading for c in clips]),
+            frame_height=np.concatenate([c.root_height for c in clips]),
+            frame_radius=np.concatenate(radius).astype(np.float32),
+            frame_top=np.concatenate(top).astype(np.float32),
+            meta=dict(meta or {}))
+
+    # -- packs ----------------------------------------------------------------------------------
+    _ARRAYS = ("node_rotations", "node_height", "node_state", "edge_src", "edge_dst", "edge_state",
+               "edge_start", "frame_rotations", "frame_xz", "frame_heading", "frame_height",
+               "frame_radius", "frame_top")
+
+    def save(self, path) -> None:
+        meta = dict(self.meta)
+        meta.update({"skeleton": self.skeleton.to_dict(), "fps": self.fps, "node_labels": self.node_labels,
+                     "edge_labels": self.edge_labels, "states": list(STATES)})
+        save_pack(path, PACK_KIND, PACK_VERSION, meta, {k: getattr(self, k) for k in self._ARRAYS})
+
+    @classmethod
+    def load(cls, path) -> "MotionGraph":
+        pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
+        try:
+            meta = dict(pk.meta)
+            sk = Skeleton.from_dict(meta.pop("skeleton"))
+            fps = float(meta.pop("fps"))
+            node_labels = meta.pop("node_labels")
+            edge_labels = meta.pop("edge_labels")
+            meta.pop("states", None)
+            g = cls(skeleton=sk, fps=fps, node_labels=node_labels, edge_labels=edge_labels, meta=meta,
+                    path=str(path), **{k: pk.arrays[k] for k in cls._ARRAYS})
+        except AssetError:
+            raise
+        except Exception as e:
+            raise AssetError(path, f"motion graph pack is inconsistent: {type(e).__name__}: {e}") from None
+        g.validate(path)
+        return g
+
+    def validate(self, path="<graph>") -> None:
+        """Structural checks (index ranges, array lengths) so a bad pack fails at load time."""
+        E, N, T = self.num_edges, self.num_nodes, len(self.frame_heading)
+        J = self.skeleton.num_joints
+        problems = []
+        if self.node_rotations.shape != (N, J, 4):
+            problems.append(f"node_rotations shape {self.node_rotations.shape}")
+        if E and (self.edge_src.min() < 0 or self.edge_src.max() >= N or self.edge_dst.min() < 0 or self.edge_dst.max() >= N):
+            problems.append("edge endpoints out of range")
+        if len(self.edge_start) != E + 1 or self.edge_start[0] != 0 or self.edge_start[-1] != T or np.any(np.diff(self.edge_start) < 2):
+            problems.append("edge_start offsets invalid")
+        if self.frame_rotations.shape != (T, J, 4) or len(self.frame_xz) != T:
+            problems.append("frame arrays have inconsistent lengths")
+        if len(self.node_labels) != N or len(self.edge_labels) != E:
+            problems.append("label lists have the wrong length")
+        if problems:
+            raise AssetError(path, "motion graph pack is inconsistent: " + "; ".join(problems))
+
+    # -- summary ----------------------------------------------------------------------------------
+    def summary(self) -> dict:
+        from collections import Counter
+        pairs = self.pair_count
+        lab = Counter(l for labs in self.edge_labels for l in labs)
+        per_state = {}
+        for s, name in enumerate(STATES):
+            m = self.edge_state == s
+            per_state[name] = {"nodes": int((self.node_state == s).sum()), "edges": int(m.sum()),
+                               "seconds": round(float(self.edge_duration[m].sum()), 2)}
+        per_state["transition"] = {"edges": int((self.edge_state == TRANSITION).sum())}
+        heading_ranges = []
+        for p in np.unique(self.edge_pair):
+            es = np.flatnonzero(self.edge_pair == p)
+            if len(es) > 1:
+                h = np.degrees(self.edge_disp[es, 2])
+                heading_ranges.append((int(self.edge_src[es[0]]), int(self.edge_dst[es[0]]), len(es),
+                                       round(float(h.min()), 1), round(float(h.max()), 1)))
+        heading_ranges.sort(key=lambda r: -(r[4] - r[3]))
+        return {
+            "nodes": self.num_nodes, "edges": self.num_edges, "seconds": round(self.total_seconds, 2),
+            "fps": self.fps, "family": self.skeleton.family,
+            "node_labels": {lab: int(len(self.nodes_with_label(lab))) for lab in self.node_labels_all()},
+            "edge_label_counts": dict(sorted(lab.items())),
+            "states": per_state,
+            "parallel": {"pairs": int(len(pairs)), "pairs_with_parallel": int((pairs > 1).sum()),
+                         "median_parallel": float(np.median(pairs)) if len(pairs) else 0.0,
+                         "max_parallel": int(pairs.max()) if len(pairs) else 0},
+            "heading_change_per_pair": heading_ranges[:10],
+            "pruned_edges": self.meta.get("pruned_edges"), "pruned_nodes": self.meta.get("pruned_nodes"),
+        }
