@@ -60,6 +60,13 @@ def _body_bytes(body: dict) -> bytes:
     return msgpack.packb(body, use_bin_type=True)
 
 
+def _default_mode() -> int:
+    """0666 minus the umask: what ``open()`` would give a new file (mkstemp uses 0600)."""
+    um = os.umask(0)
+    os.umask(um)
+    return 0o666 & ~um
+
+
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically: temp file beside it, fsync, rename."""
     path = Path(path)
@@ -70,6 +77,7 @@ def atomic_write_bytes(path, data: bytes) -> None:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
+        os.chmod(tmp, _default_mode())
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -102,6 +110,7 @@ class atomic_path:
         if exc_type is None:
             with open(self.tmp, "rb+") as f:
                 os.fsync(f.fileno())
+            os.chmod(self.tmp, _default_mode())
             os.replace(self.tmp, self.path)
         else:
             try:
