@@ -1,0 +1,162 @@
+"""Planning a whole scenario: characters one after another (paper 000, section 3.1).
+
+Characters are planned in an order that respects relative timing; each planned character
+enters the space-time index and is a moving obstacle for the ones after it. A character's
+track covers the whole scenario: its segments goal after goal, then idling in place (the
+final node's self-loop clips with their drift removed) until the end.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .scenario import Scenario, ScenarioError, planning_order
+from .spacetime import SpaceTimeIndex
+from .synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
+from .tracks import Track, concat_tracks
+
+__all__ = ["CharacterResult", "CrowdResult", "plan_scenario", "idle_track", "run_to_completion"]
+
+
+@dataclass
+class CharacterResult:
+    name: str
+    track: Track
+    arrivals: list            # clock frame of each goal's arrival
+    goals: list               # resolved Goal objects (absolute windows, allowed nodes)
+    warnings: list = field(default_factory=list)
+    seconds: float = 0.0      # synthesis time
+    iterations: int = 0
+    motion_seconds: float = 0.0
+
+
+@dataclass
+class CrowdResult:
+    scenario: Scenario
+    fps: float
+    num_frames: int
+    characters: list
+    order: list
+    total_seconds: float = 0.0
+
+    def by_name(self, name) -> CharacterResult:
+        return next(c for c in self.characters if c.name == name)
+
+
+def run_to_completion(gen):
+    try:
+        while True:
+            next(gen)
+    except StopIteration as e:
+        return e.value
+
+
+def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
+    """``n_frames`` frames (including the start frame) of idling at ``cfg``: the node's
+    self-loop clip with the least drift, repeated, each repeat bent back onto the start
+    configuration; a held pose when the node has no self loop."""
+    g = lib.g
+    loops = np.flatnonzero((g.edge_src == cfg.node) & (g.edge_dst == cfg.node))
+    start = np.array([cfg.x, cfg.z, cfg.heading])
+    last = g.edge_start[np.flatnonzero(g.edge_dst == cfg.node)[0] + 1] - 1 if np.any(g.edge_dst == cfg.node) else 0
+    if len(loops) == 0 or n_frames <= 1:
+        fa = np.full(n_frames, last, dtype=np.int64)
+        return Track(fa, fa.copy(), np.zeros(n_frames, np.float32), np.repeat(start[None], n_frames, 0), cfg.frame)
+    drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
+    e = int(loops[np.argmin(drift)])
+    a, b = g.edge_start[e], g.edge_start[e + 1]
+    L = b - a                                   # frames in the loop including both hub frames
+    local = np.stack([g.frame_xz[a:b, 0], g.frame_xz[a:b, 1], g.frame_heading[a:b]], axis=1)
+    ramp = np.linspace(0.0, 1.0, L)[:, None] * g.edge_disp[e][None, :]
+    local = local - ramp                        # each repeat returns exactly to the start
+    reps = int(np.ceil((n_frames - 1) / (L - 1)))
+    idx = np.concatenate([[0]] + [np.arange(1, L)] * reps)[:n_frames]
+    frames = a + idx
+    root = compose(start[None], local[idx])
+    return Track(frames, frames.copy(), np.zeros(n_frames, np.float32), root, cfg.frame)
+
+
+def _start_node(graph, pose: str, where: str) -> int:
+    nodes = graph.nodes_with_label(pose)
+    if len(nodes) == 0:
+        raise ScenarioError(f"{where}: pose {pose!r} is not a node label of the library")
+    # the most connected node with that label
+    deg = np.bincount(graph.edge_src, minlength=graph.num_nodes)[nodes]
+    return int(nodes[np.argmax(deg)])
+
+
+def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SynthesisParams | None = None,
+                  progress=None, log=None) -> CrowdResult:
+    params = params or SynthesisParams(eps=sc.epsilon)
+    for k in ("n_m", "k_m", "n_max"):
+        if k in sc.synthesis:
+            setattr(params, k, int(sc.synthesis[k]))
+    lib = MotionLibrary(graph, params)
+    fps = params.fps
+    n_total = int(round(sc.duration * fps)) + 1
+    index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * params.margin + 0.05))
+    sdf = env.sdf(resolution=0.05, margin=2.0) if env is not None and (len(env.polygons) or len(env.circles)) else None
+    static = sdf.sample if sdf is not None else None
+    order = planning_order(sc)
+    rng = np.random.default_rng(sc.seed)
+    results: dict[int, CharacterResult] = {}
+    t_all = time.perf_counter()
+    for ci in order:
+        c = sc.characters[ci]
+        t0 = time.perf_counter()
+        owner = ci
+        planner = SegmentPlanner(lib, static=static,
+                                 collide=lambda f, xz, r: index.overlaps(f, xz, r),
+                                 roadmap=roadmap, env=env, params=params)
+        node = _start_node(graph, c.pose, f"{sc.path}: character {c.name!r} start")
+        cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
+        parts = []
+        arrivals, goals, warnings = [], [], []
+        iters = 0
+        for gi, gs in enumerate(c.goals):
+            window = gs.time
+            if gs.after is not None:
+                other = sc.character(gs.after["character"])
+                oi = sc.characters.index(other)
+                t_other = (results[oi].arrivals[gs.after["goal"]] / fps) if oi != ci else arrivals[gs.after["goal"]] / fps
+                w = (t_other + gs.after["within"][0], t_other + gs.after["within"][1])
+                window = w if window is None else (max(w[0], window[0]), min(w[1], window[1]))
+                if window[1] < window[0]:
+                    raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: its time window and "
+                                        f"'after' window do not overlap")
+            nodes = graph.nodes_with_label(gs.pose) if gs.pose else None
+            if nodes is not None and len(nodes) == 0:
+                raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
+            goal = Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
+            goals.append(goal)
+            res = run_to_completion(planner.run(cfg, goal, rng, owner, name=f"{c.name} goal {gi}"))
+            iters += res.iterations
+            if res.warning:
+                warnings.append(res.warning)
+                if log:
+                    log(f"warning: {res.warning}")
+            parts.append(Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame))
+            cfg = res.end
+            arrivals.append(cfg.frame)
+        track = concat_tracks(parts) if parts else idle_track(lib, cfg, n_total)
+        if len(track) > n_total:
+            warnings.append(f"{c.name}: motion runs {len(track) / fps:.1f} s, past the scenario's {sc.duration} s")
+            if log:
+                log(f"warning: {warnings[-1]}")
+            n_total_c = len(track)
+        else:
+            n_total_c = n_total
+        if len(track) < n_total_c:
+            track = concat_tracks([track, idle_track(lib, cfg, n_total_c - len(track) + 1)])
+        track = track.slice(0, n_total)
+        frames = np.arange(len(track))
+        rad = np.maximum(graph.frame_radius[track.frames_a], graph.frame_radius[track.frames_b])
+        index.insert(owner, frames, track.root[:, :2], rad)
+        results[ci] = CharacterResult(c.name, track, arrivals, goals, warnings, time.perf_counter() - t0, iters,
+                                      arrivals[-1] / fps if arrivals else 0.0)
+        if progress:
+            progress(1)
+    total = time.perf_counter() - t_all
+    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total)

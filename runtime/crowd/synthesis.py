@@ -1,0 +1,680 @@
+"""Goal-directed motion synthesis (Sung, Kovar, Gleicher 2005 — paper 000, section 3).
+
+One *segment* takes a character from a start configuration (node N_s, position p_s,
+heading theta_s, time t_s) to a goal configuration (node N_e, p_e, theta_e) inside an
+optional time window [t_a, t_b]:
+
+1. Seeds (3.2): a greedy *forward* motion M_f from the start through the roadmap way points,
+   and a greedy *backward* motion M_b (the same planner on the time-reversed graph) that ends
+   exactly in the goal. Both stay inside the segment's travel state subgraph; entering or
+   leaving another state (sit down, stand up, pick up, put down) uses the fewest-edge path,
+   ties broken by the position/orientation error.
+2. Search (3.3): the splice cost (Eq. 1)
+
+       C(i, j) = (E_p + a1 E_theta + a2 E_t) / N(i, j)
+
+   over every pair (prefix i of M_f, suffix j of M_b) that meets at the same node, minimised
+   (Eq. 2). With the tolerance eps = (eps_p m/s, eps_theta deg/s, eps_t s/s) the units are
+   a1 = eps_p / eps_theta, a2 = eps_p / eps_t, so "C' <= eps_p" is the paper's test
+   (1 cm = 1 deg = 1/30 s with the default eps). While C' > eps, n_m perturbed pairs are made
+   per iteration (one clip of one motion replaced by a clip between the same two nodes, drawn
+   with probability inversely proportional to ``|dp - dp'| + a1 |dtheta - dtheta'| +
+   a2 |dt - dt'|``), all costed at once as arrays; the k_m best are kept; after N_max
+   iterations the best pair is used with a warning.
+3. Splice (3.3, steps 1-4): displacement maps move the forward part by (k/N_f) lambda_1 dp
+   and the backward part by -(1 - k/N_b) lambda_2 dp (and the same for heading), the parts
+   are concatenated at the shared node, and the result is resampled in time to a duration
+   inside the window (on the 30 Hz grid). A final collision test rejects the splice.
+
+The planner is a generator (:meth:`SegmentPlanner.run`): every ``next()`` does a bounded
+amount of work (one search iteration), so the runtime can time-slice it under a per-tick
+budget.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import breadth_first_order, shortest_path
+
+from ..motion.graph import MotionGraph, STATES, TRANSITION
+
+__all__ = ["SynthesisParams", "Config", "Goal", "SegmentResult", "MotionLibrary", "SegmentPlanner",
+           "compose", "compose_inverse", "wrap_angle"]
+
+TWO_PI = 2.0 * np.pi
+
+
+def wrap_angle(a):
+    return (np.asarray(a) + np.pi) % TWO_PI - np.pi
+
+
+def compose(c, d):
+    """Planar rigid composition ``c o d`` of (..., 3) = (x, z, heading) arrays: d is expressed
+    in c's frame (heading about +Y: Ry(h) (x, z) = (cos h x + sin h z, -sin h x + cos h z))."""
+    h = c[..., 2]
+    ch, sh = np.cos(h), np.sin(h)
+    x = c[..., 0] + ch * d[..., 0] + sh * d[..., 1]
+    z = c[..., 1] - sh * d[..., 0] + ch * d[..., 1]
+    return np.stack([x, z, h + d[..., 2]], axis=-1)
+
+
+def compose_inverse(c_end, d):
+    """The configuration before an edge with displacement ``d`` that ends at ``c_end``."""
+    h = c_end[..., 2] - d[..., 2]
+    ch, sh = np.cos(h), np.sin(h)
+    x = c_end[..., 0] - (ch * d[..., 0] + sh * d[..., 1])
+    z = c_end[..., 1] - (-sh * d[..., 0] + ch * d[..., 1])
+    return np.stack([x, z, h], axis=-1)
+
+
+@dataclass
+class SynthesisParams:
+    n_m: int = 200                 # perturbed pairs per iteration
+    k_m: int = 30                  # pairs kept between iterations
+    n_max: int = 1000              # iterations before giving up (warning, best pair used)
+    eps: tuple = (0.02, 2.0, 1.0 / 15.0)   # per-frame adjustment tolerance: m/s, deg/s, s/s
+    sample_step: int = 3           # frames between collision samples in seeds
+    margin: float = 0.02           # extra clearance (m) in collision tests
+    max_seed_edges: int = 80
+    fps: float = 30.0
+
+    @property
+    def alpha(self):
+        """(a1 per radian, a2 per second) in metres, so that the cost is in m/s."""
+        ep, et, es = self.eps
+        return ep / np.radians(et), ep / es
+
+
+@dataclass
+class Config:
+    node: int
+    x: float
+    z: float
+    heading: float     # radians
+    frame: int         # absolute frame on the fps grid
+
+    @property
+    def xzh(self):
+        return np.array([self.x, self.z, self.heading])
+
+
+@dataclass
+class Goal:
+    position: np.ndarray                 # (2,)
+    heading: float | None = None         # radians
+    nodes: np.ndarray | None = None      # allowed end nodes (pose constraint), None = free
+    window: tuple | None = None          # absolute seconds (t_a, t_b)
+    label: str = ""
+
+
+@dataclass
+class SegmentResult:
+    ok: bool
+    frames_a: np.ndarray       # (m,) global library frame before each output frame
+    frames_b: np.ndarray       # (m,) global library frame after
+    frames_t: np.ndarray       # (m,) blend in [0, 1)
+    root: np.ndarray           # (m, 3) x, z, heading (rad, continuous)
+    start_frame: int           # absolute frame of output frame 0 (= the start config)
+    end: Config
+    cost: float
+    rates: tuple               # achieved per-frame adjustment (m/s, deg/s, s/s)
+    iterations: int
+    edges: list                # library edges used, in order
+    warning: str = ""
+    collided: bool = False
+
+
+class MotionLibrary:
+    """Precomputed arrays over a :class:`MotionGraph` that the planner needs every query:
+    forward and reversed adjacency, collision samples per edge, parallel-edge alternatives
+    with their replacement probabilities."""
+
+    def __init__(self, graph: MotionGraph, params: SynthesisParams | None = None):
+        self.g = g = graph
+        self.params = params or SynthesisParams()
+        E, N = g.num_edges, g.num_nodes
+        self.disp = g.edge_disp.copy()
+        self.disp_rev = np.stack([
+            -(np.cos(-self.disp[:, 2]) * self.disp[:, 0] + np.sin(-self.disp[:, 2]) * self.disp[:, 1]),
+            -(-np.sin(-self.disp[:, 2]) * self.disp[:, 0] + np.cos(-self.disp[:, 2]) * self.disp[:, 1]),
+            -self.disp[:, 2]], axis=1)
+        self.dur = g.edge_duration.copy()
+        self.nframes = g.edge_frames.copy()
+        # collision samples: every ``step`` frames and the last, as CSR over edges
+        step = self.params.sample_step
+        ptr = [0]
+        idx = []
+        for e in range(E):
+            a, b = g.edge_start[e], g.edge_start[e + 1]
+            s = np.arange(a, b, step)
+            if s[-1] != b - 1:
+                s = np.append(s, b - 1)
+            idx.append(s)
+            ptr.append(ptr[-1] + len(s))
+        self.samp_ptr = np.array(ptr)
+        self.samp_frame = np.concatenate(idx)
+        self.samp_edge = np.repeat(np.arange(E), np.diff(self.samp_ptr))
+        self.samp_off = self.samp_frame - g.edge_start[self.samp_edge]
+        # alternatives: parallel edges weighted by 1 / distance (paper 000, section 3.3)
+        a1, a2 = self.params.alpha
+        aptr, aidx, acum = [0], [], []
+        for e in range(E):
+            par = g.parallel_edges(e)
+            par = par[par != e]
+            if len(par):
+                d = (np.hypot(*(self.disp[par, :2] - self.disp[e, :2]).T)
+                     + a1 * np.abs(self.disp[par, 2] - self.disp[e, 2]) + a2 * np.abs(self.dur[par] - self.dur[e]))
+                w = 1.0 / (d + 1e-3)
+                c = np.cumsum(w) / w.sum()
+                c[-1] = 1.0
+                aidx.append(par)
+                acum.append(c + e)        # offset by the group id for one global searchsorted
+            aptr.append(aptr[-1] + len(par))
+        self.alt_ptr = np.array(aptr)
+        self.alt_idx = np.concatenate(aidx) if aidx else np.zeros(0, np.int64)
+        self.alt_cum = np.concatenate(acum) if acum else np.zeros(0)
+        self.has_alt = np.diff(self.alt_ptr) > 0
+        # adjacency for fewest-edge paths
+        self.adj = csr_matrix((np.ones(E), (g.edge_src, g.edge_dst)), shape=(N, N))
+        self.max_radius = float(g.frame_radius.max()) if len(g.frame_radius) else 0.5
+
+    def sample_alternatives(self, edges: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Replacement clips for ``edges`` (all must have alternatives), u ~ U[0, 1)."""
+        k = np.searchsorted(self.alt_cum, edges + u, side="right")
+        k = np.clip(k, self.alt_ptr[edges], self.alt_ptr[edges + 1] - 1)
+        return self.alt_idx[k]
+
+    def state_edges(self, state: int) -> np.ndarray:
+        return self.g.edge_state == state
+
+
+# ------------------------------------------------------------------------------------------
+class SegmentPlanner:
+    """Plans one segment; see the module docstring. ``collide(frames, xz, radius) -> bool
+    array`` tests samples against moving obstacles (the space-time index), ``static(xz) ->
+    distance`` against the environment (a signed distance field); both may be None."""
+
+    def __init__(self, lib: MotionLibrary, static=None, collide=None, roadmap=None, env=None,
+                 params: SynthesisParams | None = None):
+        self.lib = lib
+        self.g = lib.g
+        self.static = static
+        self.collide = collide
+        self.roadmap = roadmap
+        self.env = env
+        self.p = params or lib.params
+
+    # -- helpers -------------------------------------------------------------------------------
+    def travel_state(self, start_node: int, goal: Goal) -> int:
+        s0 = int(self.g.node_state[start_node])
+        sitting = STATES.index("sitting")
+        carrying = STATES.index("carrying")
+        walking = STATES.index("walking")
+        if s0 == sitting:
+            return walking
+        if s0 == carrying:
+            return carrying
+        return walking
+
+    def _clear(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool) -> np.ndarray:
+        """Which candidate edge placements are collision-free (vectorized over candidates)."""
+        lib = self.lib
+        n = len(edges)
+        ok = np.ones(n, dtype=bool)
+        if n == 0 or (self.static is None and (self.collide is None or not moving)):
+            return ok
+        cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
+        which = np.repeat(np.arange(n), cnt)
+        sidx = np.concatenate([np.arange(lib.samp_ptr[e], lib.samp_ptr[e + 1]) for e in edges])
+        gf = lib.samp_frame[sidx]
+        local = np.stack([self.g.frame_xz[gf, 0], self.g.frame_xz[gf, 1], self.g.frame_heading[gf]], axis=1)
+        world = compose(cfgs[which], local)
+        rad = self.g.frame_radius[gf].astype(np.float64) + self.p.margin
+        bad = np.zeros(len(gf), dtype=bool)
+        if self.static is not None:
+            bad |= self.static(world[:, :2]) < rad
+        if moving and self.collide is not None:
+            bad |= self.collide(frames0[which] + lib.samp_off[sidx], world[:, :2], rad)
+        ok &= ~np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(cnt)[:-1]])) if len(bad) else ok
+        return ok
+
+    def _bfs_dist(self, targets: np.ndarray, allowed: np.ndarray, reverse: bool) -> np.ndarray:
+        """Fewest edges from every node to any of ``targets`` (edges masked by ``allowed``)."""
+        g = self.g
+        N = g.num_nodes
+        s, d = (g.edge_src, g.edge_dst) if not reverse else (g.edge_dst, g.edge_src)
+        m = allowed
+        # distance to targets = shortest path in the reversed graph from a super source
+        A = csr_matrix((np.ones(m.sum()), (d[m], s[m])), shape=(N, N))
+        dist = shortest_path(A, unweighted=True, indices=np.asarray(targets), directed=True)
+        return np.min(np.atleast_2d(dist), axis=0)
+
+    def greedy(self, start_node: int, start_cfg: np.ndarray, frame0: int, waypoints: np.ndarray,
+               final_heading, travel: int, target_nodes, reverse: bool, rng) -> tuple[list, int]:
+        """Greedy seed motion (paper 000, section 3.2). ``reverse`` plans M_b on the
+        time-reversed graph (edges walked from their end to their start). Returns
+        (edges in the walking order, last node)."""
+        g, lib = self.g, self.lib
+        src, dst = (g.edge_src, g.edge_dst) if not reverse else (g.edge_dst, g.edge_src)
+        disp = lib.disp if not reverse else lib.disp_rev
+        in_travel = g.edge_state == travel
+        node = int(start_node)
+        cfg = np.asarray(start_cfg, dtype=np.float64)
+        frame = int(frame0)
+        edges: list[int] = []
+        a1 = self.p.alpha[0]
+        t_sign = -1 if reverse else 1
+
+        def advance(e):
+            nonlocal node, cfg, frame
+            edges.append(int(e))
+            cfg = compose(cfg, disp[e])
+            node = int(dst[e])
+            frame += t_sign * int(lib.nframes[e] - 1)
+
+        # prefix: leave the start state for the travel state by the fewest edges
+        if g.node_state[node] != travel:
+            tnodes = np.flatnonzero(g.node_state == travel)
+            dist = self._bfs_dist(tnodes, np.ones(g.num_edges, bool), reverse)
+            self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[min(1, len(waypoints) - 1)],
+                              src, dst, disp, np.ones(g.num_edges, bool))
+        wi = 1 if len(waypoints) > 1 else 0
+        best = None
+        last = len(waypoints) - 1
+        tgt = None if target_nodes is None else np.asarray(target_nodes)
+
+        def err(cfgs, final):
+            e = np.hypot(cfgs[..., 0] - waypoints[wi, 0], cfgs[..., 1] - waypoints[wi, 1])
+            if final and final_heading is not None:
+                e = e + a1 * np.abs(wrap_angle(cfgs[..., 2] - final_heading))
+            return e
+
+        while len(edges) < self.p.max_seed_edges:
+            final = wi >= last
+            out = np.flatnonzero((src == node) & in_travel)
+            if len(out) == 0:
+                break
+            ends = compose(cfg[None], disp[out])
+            e = err(ends, final)
+            cur = float(err(cfg, final))
+            order = np.argsort(e, kind="stable")
+            order = order[e[order] < cur - 1e-9]
+            pick = None
+            if len(order):
+                cand = out[order[:12]]
+                ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
+                                 np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
+                                 moving=not reverse)
+                if ok.any():
+                    pick = cand[np.argmax(ok)]
+            if pick is None:
+                if not final:
+                    wi += 1
+                    continue
+                break
+            advance(pick)
+            if tgt is not None and node in tgt:
+                best = (list(edges), node, cfg.copy())
+        if tgt is not None:
+            if best is not None:
+                return best[0], best[1]
+            # fallback: fewest-edge path to the required node (ties by the error)
+            allowed = in_travel | (g.edge_state == TRANSITION) | np.isin(dst, tgt)
+            dist = self._bfs_dist(tgt, allowed, reverse)
+            if not np.isfinite(dist[node]):
+                allowed = np.ones(g.num_edges, bool)
+                dist = self._bfs_dist(tgt, allowed, reverse)
+            self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst, disp, allowed)
+        return edges, node
+
+    def _fewest_path(self, node, dist, advance, get_node, get_cfg, target_xz, src, dst, disp, allowed):
+        guard = 0
+        while np.isfinite(dist[get_node()]) and dist[get_node()] > 0 and guard < 64:
+            guard += 1
+            n = get_node()
+            out = np.flatnonzero((src == n) & allowed & (dist[dst] == dist[n] - 1))
+            if len(out) == 0:
+                break
+            ends = compose(get_cfg()[None], disp[out])
+            e = np.hypot(ends[:, 0] - target_xz[0], ends[:, 1] - target_xz[1])
+            advance(out[np.argmin(e)])
+
+    # -- cost (Eq. 1, 2), vectorized over pairs ---------------------------------------------------
+    def pair_costs(self, F: np.ndarray, nf: np.ndarray, B: np.ndarray, nb: np.ndarray,
+                   start: np.ndarray, goal: np.ndarray, window_rel):
+        """Splice costs of many (M_f, M_b) pairs.
+
+        F: (P, Lf) forward edges left-aligned, padded -1, lengths nf; B: (P, Lb) backward edges
+        right-aligned (walking order), lengths nb. Returns (cost (P,), i (P,), j (P,)) where
+        the best splice joins M_f[:i] with M_b[j:] (columns of B)."""
+        lib = self.lib
+        g = self.g
+        P, Lf = F.shape
+        Lb = B.shape[1]
+        a1, a2 = self.p.alpha
+        fv = F >= 0
+        bv = B >= 0
+        Fe = np.where(fv, F, 0)
+        Be = np.where(bv, B, 0)
+        # forward configurations at nodes 0..Lf
+        dF = np.where(fv[..., None], lib.disp[Fe], 0.0)
+        hF = start[2] + np.concatenate([np.zeros((P, 1)), np.cumsum(dF[..., 2], axis=1)], axis=1)
+        c, s = np.cos(hF[:, :-1]), np.sin(hF[:, :-1])
+        stepx = c * dF[..., 0] + s * dF[..., 1]
+        stepz = -s * dF[..., 0] + c * dF[..., 1]
+        xF = start[0] + np.concatenate([np.zeros((P, 1)), np.cumsum(stepx, axis=1)], axis=1)
+        zF = start[1] + np.concatenate([np.zeros((P, 1)), np.cumsum(stepz, axis=1)], axis=1)
+        tF = np.concatenate([np.zeros((P, 1)), np.cumsum(np.where(fv, lib.dur[Fe], 0.0), axis=1)], axis=1)
+        nodeF = np.concatenate([np.full((P, 1), -2), np.where(fv, g.edge_dst[Fe], -3)], axis=1)
+        nodeF[:, 0] = self._start_node
+        # backward configurations at node positions 0..Lb (position Lb = goal), right-aligned
+        dB = np.where(bv[..., None], lib.disp[Be], 0.0)
+        hB = goal[2] - np.concatenate([np.cumsum(dB[:, ::-1, 2], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
+        c, s = np.cos(hB[:, :-1]), np.sin(hB[:, :-1])
+        stepx = c * dB[..., 0] + s * dB[..., 1]
+        stepz = -s * dB[..., 0] + c * dB[..., 1]
+        xB = goal[0] - np.concatenate([np.cumsum(stepx[:, ::-1], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
+        zB = goal[1] - np.concatenate([np.cumsum(stepz[:, ::-1], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
+        tB = np.concatenate([np.cumsum(np.where(bv, lib.dur[Be], 0.0)[:, ::-1], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
+        nodeB = np.concatenate([np.where(bv, g.edge_src[Be], -4), self._goal_node_col(P)], axis=1)
+        validF = np.arange(Lf + 1)[None, :] <= nf[:, None]
+        validB = np.arange(Lb + 1)[None, :] >= (Lb - nb)[:, None]
+        nodeF = np.where(validF, nodeF, -5)
+        nodeB = np.where(validB, nodeB, -6)
+        same = nodeF[:, :, None] == nodeB[:, None, :]
+        N = tF[:, :, None] + tB[:, None, :]
+        same &= N > 0.2
+        # only the pairs that meet at a node are costed (a sparse gather, C order: sorted by pair)
+        pp, ii, jj = np.nonzero(same)
+        if len(pp) == 0:
+            return np.full(P, np.inf), np.zeros(P, dtype=np.int64), np.full(P, Lb, dtype=np.int64)
+        Np = N[pp, ii, jj]
+        Ep = np.hypot(xF[pp, ii] - xB[pp, jj], zF[pp, ii] - zB[pp, jj])
+        dh = hF[pp, ii] - hB[pp, jj]
+        Eh = np.abs(dh - TWO_PI * np.rint(dh * (1.0 / TWO_PI)))
+        c = Ep + a1 * Eh
+        if window_rel is not None:
+            c += a2 * np.maximum(0.0, np.maximum(window_rel[0] - Np, Np - window_rel[1]))
+        c /= Np
+        # per pair minimum (Eq. 2) through a dense scatter and one argmin
+        dense = np.full((P, (Lf + 1) * (Lb + 1)), np.inf)
+        dense[pp, ii * (Lb + 1) + jj] = c
+        k = np.argmin(dense, axis=1)
+        best = dense[np.arange(P), k]
+        return best, k // (Lb + 1), k % (Lb + 1)
+
+    def _goal_node_col(self, P):
+        return np.full((P, 1), self._goal_node)
+
+    # -- the whole segment ------------------------------------------------------------------------------
+    def run(self, start: Config, goal: Goal, rng: np.random.Generator, owner: int = -1, name: str = ""):
+        """Generator: yields after each bounded step; returns a :class:`SegmentResult`."""
+        g, lib, p = self.g, self.lib, self.p
+        travel = self.travel_state(start.node, goal)
+        if self.roadmap is not None and self.env is not None:
+            wps = self.roadmap.waypoints(self.env, np.array([start.x, start.z]), np.asarray(goal.position, float))
+        else:
+            wps = np.array([[start.x, start.z], goal.position], dtype=np.float64)
+        yield
+        # forward seed
+        tgt = goal.nodes
+        F0, f_end = self.greedy(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt, False, rng)
+        if not F0:
+            # already as close as the graph gets: take the out-edge that ends nearest the goal,
+            # so that the segment has a motion to adjust
+            out = g.out_edges(start.node)
+            out = out[g.edge_state[out] == travel] if np.any(g.edge_state[out] == travel) else out
+            ends = compose(start.xzh[None], lib.disp[out])
+            e0 = int(out[np.argmin(np.hypot(ends[:, 0] - goal.position[0], ends[:, 1] - goal.position[1]))])
+            F0, f_end = [e0], int(g.edge_dst[e0])
+        yield
+        if tgt is None:
+            # no pose constraint: end where the forward seed ends up (a node of the travel state)
+            end_nodes = np.array([f_end]) if g.node_state[f_end] == travel else np.flatnonzero(g.node_state == travel)[:1]
+        else:
+            end_nodes = np.asarray(tgt)
+        goal_node = int(end_nodes[0])
+        if tgt is not None and len(end_nodes) > 1:
+            # the pose node the forward seed reached, else the first
+            goal_node = int(f_end) if f_end in end_nodes else goal_node
+        goal_h = goal.heading
+        if goal_h is None:
+            # free orientation: the heading the forward seed arrives with
+            c = start.xzh
+            for e in F0:
+                c = compose(c, lib.disp[e])
+            goal_h = float(c[2])
+        goal_cfg = np.array([goal.position[0], goal.position[1], goal_h])
+        goal_frame_est = start.frame + int(round(p.fps * (goal.window[0] if goal.window else 0)))
+        B0r, _ = self.greedy(goal_node, goal_cfg, goal_frame_est, wps[::-1], start.heading, travel,
+                             np.array([start.node]) if g.node_state[start.node] == travel else None, True, rng)
+        B0 = B0r[::-1]
+        yield
+        self._start_node = int(start.node)
+        self._goal_node = goal_node
+        window_rel = None
+        if goal.window is not None:
+            t0 = start.frame / p.fps
+            window_rel = (goal.window[0] - t0, goal.window[1] - t0)
+        eps_p = p.eps[0]
+        Lf = max(len(F0), 1) + 8
+        Lb = max(len(B0), 1) + 8
+
+        def pack(lists_f, lists_b):
+            n = len(lists_f)
+            Fa = -np.ones((n, Lf), dtype=np.int64)
+            Ba = -np.ones((n, Lb), dtype=np.int64)
+            for r, (f, b) in enumerate(zip(lists_f, lists_b)):
+                Fa[r, :len(f)] = f
+                if len(b):
+                    Ba[r, Lb - len(b):] = b
+            return Fa, Ba
+
+        Fp, Bp = pack([F0], [B0])
+        nfp = np.array([len(F0)])
+        nbp = np.array([len(B0)])
+        costp, ip, jp = self.pair_costs(Fp, nfp, Bp, nbp, start.xzh, goal_cfg, window_rel)
+        rejected = set()
+        best_overall = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
+        iterations = 0
+        result = None
+
+        def try_accept(cost, Frow, nf, Brow, nb, i, j):
+            key = (tuple(Frow[:i]), tuple(Brow[j:][Brow[j:] >= 0]))
+            if key in rejected:
+                return None
+            res = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel)
+            if res is None:
+                rejected.add(key)
+                return None
+            rates = res.rates
+            if rates[0] > p.eps[0] * (1 + 1e-9) or rates[1] > p.eps[1] * (1 + 1e-9) or rates[2] > p.eps[2] * (1 + 1e-9):
+                rejected.add(key)
+                return None
+            if self.final_collision(res, owner):
+                rejected.add(key)
+                return None
+            res.cost = float(cost)
+            return res
+
+        if np.isfinite(costp[0]) and costp[0] <= eps_p:
+            result = try_accept(costp[0], Fp[0], nfp[0], Bp[0], nbp[0], ip[0], jp[0])
+        while result is None and iterations < p.n_max:
+            iterations += 1
+            K = len(costp)
+            P = p.n_m
+            parent = rng.integers(0, K, size=P)
+            Fn = Fp[parent].copy()
+            Bn = Bp[parent].copy()
+            nfn = nfp[parent].copy()
+            nbn = nbp[parent].copy()
+            # pick which motion to perturb and a clip that has an alternative
+            fa = (Fn >= 0) & lib.has_alt[np.maximum(Fn, 0)]
+            ba = (Bn >= 0) & lib.has_alt[np.maximum(Bn, 0)]
+            use_f = rng.random(P) < 0.5
+            use_f = np.where(fa.any(1) & ~ba.any(1), True, np.where(ba.any(1) & ~fa.any(1), False, use_f))
+            mask = np.where(use_f[:, None], fa, False)
+            keys = rng.random((P, Lf)) * mask
+            col_f = np.argmax(keys, axis=1)
+            maskb = np.where(~use_f[:, None], ba, False)
+            keysb = rng.random((P, Lb)) * maskb
+            col_b = np.argmax(keysb, axis=1)
+            u = rng.random(P)
+            rowf = np.flatnonzero(use_f & fa.any(1))
+            if len(rowf):
+                Fn[rowf, col_f[rowf]] = lib.sample_alternatives(Fn[rowf, col_f[rowf]], u[rowf])
+            rowb = np.flatnonzero(~use_f & ba.any(1))
+            if len(rowb):
+                Bn[rowb, col_b[rowb]] = lib.sample_alternatives(Bn[rowb, col_b[rowb]], u[rowb])
+            cn, inn, jn = self.pair_costs(Fn, nfn, Bn, nbn, start.xzh, goal_cfg, window_rel)
+            order = np.argsort(cn, kind="stable")
+            for r in order:
+                if not (cn[r] <= eps_p):
+                    break
+                result = try_accept(cn[r], Fn[r], nfn[r], Bn[r], nbn[r], inn[r], jn[r])
+                if result is not None:
+                    break
+            if result is not None:
+                break
+            # keep the k_m best of old and new
+            allc = np.concatenate([costp, cn])
+            allF = np.concatenate([Fp, Fn])
+            allB = np.concatenate([Bp, Bn])
+            alln = np.concatenate([nfp, nfn])
+            allnb = np.concatenate([nbp, nbn])
+            alli = np.concatenate([ip, inn])
+            allj = np.concatenate([jp, jn])
+            keep = np.argsort(allc, kind="stable")[:p.k_m]
+            Fp, Bp, nfp, nbp, costp, ip, jp = allF[keep], allB[keep], alln[keep], allnb[keep], allc[keep], alli[keep], allj[keep]
+            if costp[0] < best_overall[0]:
+                best_overall = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
+            yield
+        if result is None:
+            cost, Frow, nf, Brow, nb, i, j = best_overall
+            res = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=True)
+            res.collided = self.final_collision(res, owner)
+            res.ok = False
+            res.cost = cost
+            res.warning = (f"{name or 'character'}: no motion within eps after {iterations} iterations "
+                           f"(best cost {cost / eps_p:.2f} x eps{', collides' if res.collided else ''}); using the best pair")
+            result = res
+        result.iterations = iterations
+        return result
+
+    # -- splice (steps 1-4) -------------------------------------------------------------------------------
+    def splice(self, start: Config, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=False):
+        g, lib, p = self.g, self.lib, self.p
+        fe = [int(e) for e in Frow[:i]]
+        be = [int(e) for e in Brow[j:] if e >= 0]
+        edges = fe + be
+        if not edges:
+            return None
+        # raw root per source frame, forward part from the start, backward part from the goal
+        def part(edge_list, anchor, at_end):
+            if not edge_list:
+                return np.zeros((0,), np.int64), np.zeros((0, 3)), 0.0
+            frames = [np.arange(g.edge_start[edge_list[0]], g.edge_start[edge_list[0] + 1])]
+            cfg_starts = []
+            c = np.zeros(3)
+            for k, e in enumerate(edge_list):
+                cfg_starts.append(c)
+                c = compose(c, lib.disp[e])
+                if k:
+                    frames.append(np.arange(g.edge_start[e] + 1, g.edge_start[e + 1]))
+            frames = np.concatenate(frames)
+            # local root of each frame, composed with its edge's start configuration
+            owner_edge = np.repeat(np.arange(len(edge_list)),
+                                   [lib.nframes[e] - (1 if k else 0) for k, e in enumerate(edge_list)])
+            local = np.stack([g.frame_xz[frames, 0], g.frame_xz[frames, 1], g.frame_heading[frames]], axis=1)
+            rel = compose(np.array(cfg_starts)[owner_edge], local)   # relative to the part's start
+            if at_end:
+                # place so that the last frame is the anchor: start = anchor o inverse(total)
+                total = c
+                st = compose_inverse(anchor, total)
+                # compose_inverse gives the config before a displacement ending at anchor
+                world = compose(st[None], rel)
+            else:
+                world = compose(anchor[None], rel)
+            dur = float(sum(lib.dur[e] for e in edge_list))
+            return frames, world, dur
+
+        ff, fw, Nf = part(fe, start.xzh, False)
+        bf, bw, Nb = part(be, goal_cfg, True)
+        if len(ff) == 0:
+            ff, fw = np.zeros(0, np.int64), np.zeros((0, 3))
+            join_f = start.xzh
+        else:
+            join_f = fw[-1]
+        join_b = bw[0] if len(bf) else goal_cfg
+        dp = join_b[:2] - join_f[:2]
+        dh = float(wrap_angle(join_b[2] - join_f[2]))
+        N = Nf + Nb
+        lam1, lam2 = Nf / N, Nb / N
+        parts_f, parts_r = [], []
+        if len(ff):
+            k = np.arange(len(ff)) / max(len(ff) - 1, 1)
+            adj = fw.copy()
+            adj[:, :2] += (k * lam1)[:, None] * dp
+            adj[:, 2] += k * lam1 * dh
+            parts_f.append(ff)
+            parts_r.append(adj)
+        if len(bf):
+            k = np.arange(len(bf)) / max(len(bf) - 1, 1)
+            adj = bw.copy()
+            adj[:, :2] -= ((1 - k) * lam2)[:, None] * dp
+            adj[:, 2] -= (1 - k) * lam2 * dh
+            if len(ff):
+                # unwrap the backward part's headings to continue the forward part's
+                adj[:, 2] += TWO_PI * np.round((parts_r[-1][-1, 2] - adj[0, 2]) / TWO_PI)
+                parts_f.append(bf[1:])
+                parts_r.append(adj[1:])
+            else:
+                parts_f.append(bf)
+                parts_r.append(adj)
+        src_frames = np.concatenate(parts_f)
+        src_root = np.concatenate(parts_r)
+        n_src = len(src_frames)
+        # step 4: resample to a duration inside the window, on the frame grid
+        fps = p.fps
+        D = (n_src - 1) / fps
+        if window_rel is not None:
+            lo, hi = window_rel
+            target = min(max(D, lo), hi)
+            m1 = int(round(target * fps))
+            if m1 / fps < lo - 1e-9:
+                m1 += 1
+            if m1 / fps > hi + 1e-9:
+                m1 -= 1
+            if not (lo - 1e-9 <= m1 / fps <= hi + 1e-9) and not force:
+                return None
+        else:
+            m1 = n_src - 1
+        m1 = max(m1, 1)
+        u = np.arange(m1 + 1) * ((n_src - 1) / m1)
+        u[-1] = n_src - 1
+        a = np.floor(u).astype(np.int64)
+        a = np.minimum(a, n_src - 2) if n_src > 1 else a
+        t = u - a
+        b = np.minimum(a + 1, n_src - 1)
+        root = src_root[a] * (1 - t)[:, None] + src_root[b] * t[:, None]
+        root[0] = src_root[0]
+        root[-1] = src_root[-1]
+        s = (n_src - 1) / m1
+        rates = (float(np.hypot(*dp) * s / N), float(np.degrees(abs(dh)) * s / N), float(abs(s - 1.0)))
+        end = Config(int(goal_node), float(root[-1, 0]), float(root[-1, 1]), float(root[-1, 2]), start.frame + m1)
+        # exact end: the last frame is the goal configuration by construction
+        return SegmentResult(True, src_frames[a], src_frames[b], t.astype(np.float32), root, start.frame, end,
+                             0.0, rates, 0, edges)
+
+    def final_collision(self, res: SegmentResult, owner: int) -> bool:
+        g, p = self.g, self.p
+        frames = res.start_frame + np.arange(len(res.root))
+        rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
+        xz = res.root[:, :2]
+        if self.static is not None and np.any(self.static(xz) < rad):
+            return True
+        if self.collide is not None and np.any(self.collide(frames, xz, rad)):
+            return True
+        return False
