@@ -18,6 +18,8 @@ COMMANDS = {
     "info": ("authoring.commands.info", "summarise a BVH file, a take directory or a .cwpack"),
     "convert": ("authoring.commands.convert", "convert a BVH file to USD (UsdSkel)"),
     "author": ("authoring.commands.author", "build runtime assets: motion graphs, roadmaps, flock graphs, patches"),
+    "world": ("authoring.commands.world", "check a world stage: obstacles, markers, unusable prims"),
+    "bake": ("authoring.commands.bake", "plan a sample scenario and write the baked crowd to USD"),
 }
 
 

@@ -1,0 +1,1 @@
+"""Goal-directed crowds (paper 000): environment, roadmap, seed planning, search and splicing."""
