@@ -1,0 +1,101 @@
+"""Baked crowds as USD: one SkelRoot per character (UsdSkel cannot bind to a PointInstancer).
+
+Layout::
+
+    /World                          Xform (defaultPrim)
+    /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
+        crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
+        crowdweave:frameA/B         int[t]     library frames shown (pose = slerp(A, B, T))
+        crowdweave:frameT           float[t]
+    /World/Characters/<name>/Skel       Skeleton (SkelBindingAPI, skel:animationSource -> Anim)
+    /World/Characters/<name>/Skel/Anim  SkelAnimation (root joint translation = world position)
+
+The stage's customData holds the scenario name and the library path, so a checker can read
+a bake back (:func:`read_tracks`) without the planner. Poses come from the runtime
+(:func:`runtime.crowd.tracks.evaluate_poses`); this module only moves arrays into USD.
+"""
+from __future__ import annotations
+
+import numpy as np
+from pxr import Sdf, UsdGeom
+
+from runtime.crowd.tracks import Track, evaluate_poses
+
+from .skel import bind_animation, bind_skeleton, define_skel_root, define_skeleton, joint_paths, write_animation
+from .stage import check_usd_path, new_stage, open_stage, save_stage, set_default_prim, valid_prim_name
+
+__all__ = ["build_crowd_stage", "write_crowd_stage", "read_tracks", "CHARACTERS"]
+
+CHARACTERS = "/World/Characters"
+
+
+def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None):
+    """Author every character of ``tracks`` (name -> Track) into a new (or given) stage."""
+    n = max(len(t) for t in tracks.values())
+    if stage is None:
+        stage = new_stage(fps, 0, n - 1)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    set_default_prim(stage, world.GetPrim())
+    UsdGeom.Scope.Define(stage, CHARACTERS)
+    sk = graph.skeleton
+    paths = joint_paths(sk)
+    layer = stage.GetEditTarget().GetLayer()
+    for name, tr in tracks.items():
+        root_path = Sdf.Path(CHARACTERS).AppendChild(valid_prim_name(name, "Character"))
+        root = define_skel_root(stage, root_path)
+        skel = define_skeleton(stage, root_path.AppendChild("Skel"), sk, paths=paths)
+        pos, rot = evaluate_poses(graph, tr.frames_a, tr.frames_b, tr.frames_t, tr.root)
+        trans = np.empty(pos.shape[:1] + (sk.num_joints, 3))
+        trans[:] = sk.offsets
+        trans[:, 0] = pos
+        times = float(tr.start_frame) + np.arange(len(tr), dtype=np.float64)
+        anim = write_animation(stage, skel.GetPath().AppendChild("Anim"), sk, translations=trans, rotations=rot,
+                               time_codes=times, paths=paths)
+        bind_skeleton(root, skel)
+        bind_animation(skel, anim)
+        prim = root.GetPrim()
+        a_root = prim.CreateAttribute("crowdweave:root", Sdf.ValueTypeNames.Double3)
+        a_fa = prim.CreateAttribute("crowdweave:frameA", Sdf.ValueTypeNames.Int)
+        a_fb = prim.CreateAttribute("crowdweave:frameB", Sdf.ValueTypeNames.Int)
+        a_ft = prim.CreateAttribute("crowdweave:frameT", Sdf.ValueTypeNames.Float)
+        rootv = np.column_stack([tr.root[:, 0], tr.root[:, 1], np.degrees(tr.root[:, 2])]).astype(np.float64)
+        with Sdf.ChangeBlock():
+            for attr, vals in ((a_root, None), (a_fa, tr.frames_a), (a_fb, tr.frames_b), (a_ft, tr.frames_t)):
+                sp = attr.GetPath()
+                if vals is None:
+                    for t, v in zip(times.tolist(), rootv.tolist()):
+                        layer.SetTimeSample(sp, t, tuple(v))
+                else:
+                    for t, v in zip(times.tolist(), np.asarray(vals).tolist()):
+                        layer.SetTimeSample(sp, t, v)
+    if metadata:
+        stage.GetRootLayer().customLayerData = {"crowdweave": dict(metadata)}
+    return stage
+
+
+def write_crowd_stage(path, tracks: dict, graph, fps: float, *, metadata: dict | None = None):
+    p = check_usd_path(path)
+    stage = build_crowd_stage(tracks, graph, fps, metadata=metadata)
+    save_stage(stage, p)
+    return p
+
+
+def read_tracks(stage_or_path) -> dict:
+    """Tracks (name -> Track) back from a baked stage, from its crowdweave attributes."""
+    stage = open_stage(stage_or_path)
+    out = {}
+    chars = stage.GetPrimAtPath(CHARACTERS)
+    if not chars:
+        return out
+    for prim in chars.GetChildren():
+        a = prim.GetAttribute("crowdweave:root")
+        if not a:
+            continue
+        times = a.GetTimeSamples()
+        root = np.array([a.Get(t) for t in times], dtype=np.float64)
+        fa = np.array([prim.GetAttribute("crowdweave:frameA").Get(t) for t in times], dtype=np.int64)
+        fb = np.array([prim.GetAttribute("crowdweave:frameB").Get(t) for t in times], dtype=np.int64)
+        ft = np.array([prim.GetAttribute("crowdweave:frameT").Get(t) for t in times], dtype=np.float32)
+        root[:, 2] = np.radians(root[:, 2])
+        out[prim.GetName()] = Track(fa, fb, ft, root, int(round(times[0])) if times else 0)
+    return out
