@@ -1,0 +1,242 @@
+"""The take scheduler: a capture session of several takes, written as BVH + label sidecars.
+
+A session is a sequence of activity groups (:mod:`.activities`), each starting and ending
+in the standing hub pose. A bag of the non-locomotion activities (idle, turn in place, sit
+cycle, box cycle) is shuffled and drawn in turn, with walk runs between them, so every
+activity recurs at a steady rate; the bag persists across takes. The performer stays inside
+a capture volume: walk edges and turns in place are biased towards its centre when far
+from it. Every random choice comes from one ``numpy.random.Generator`` seeded from the
+session seed; the same seed gives byte-identical files.
+
+Files: ``take_NNN.bvh`` (31-joint CMU MotionBuilder-family hierarchy, ZYX channels, CMU
+units), ``take_NNN.labels.json`` (``{"fps", "frames", "segments": [[start, end_exclusive,
+label], ...], "hubs": [[frame, hub], ...], "props": [...]}``; the segments cover every
+frame) and ``session.json`` (generator version, seed, minutes, fps, files with sha256).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from runtime.assets import atomic_write_bytes
+from runtime.motion import Clip
+
+from . import activities as act
+from . import body
+from .gait import WALK
+from .rig import Controls, solve
+
+__all__ = ["GENERATOR_VERSION", "LABELS", "Take", "generate_session", "write_session"]
+
+GENERATOR_VERSION = "1.0"
+LABELS = ("walk", "start", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
+          "pick_up", "carry", "put_down")
+VOLUME_RADIUS = 4.0        # metres; walks bend back towards the centre beyond this
+
+
+@dataclass
+class Take:
+    clip: Clip
+    segments: list
+    hubs: list
+    props: list
+    diagnostics: dict
+
+    def labels_json(self) -> dict:
+        return {
+            "fps": self.clip.fps,
+            "frames": self.clip.num_frames,
+            "segments": [[int(a), int(b), lab] for a, b, lab in self.segments],
+            "hubs": [[int(f), h] for f, h in self.hubs],
+            "props": self.props,
+            "generator": f"crowdweave.procedural {GENERATOR_VERSION}",
+        }
+
+
+def _steer_bias(state):
+    """Heading change (rad) that points the performer back towards the volume centre."""
+    x, z, th = state
+    dist = float(np.hypot(x, z))
+    if dist < 1e-6:
+        return 0.0
+    want = np.arctan2(-x, -z)
+    d = (want - th + np.pi) % (2 * np.pi) - np.pi
+    gain = np.clip((dist - 0.5 * VOLUME_RADIUS) / VOLUME_RADIUS, 0.0, 1.0)
+    return float(d * gain)
+
+
+class _Scheduler:
+    """Walk runs alternate with one or two activities drawn from a shuffled bag of
+    (idle, turn, sit, box); near the end of a take only short groups are scheduled and the
+    drawn activities wait for the next take."""
+
+    def __init__(self, rng, skel, fps):
+        self.rng = rng
+        self.skel = skel
+        self.fps = fps
+        self.bag = []
+        self.queue = []
+        self.need_run = True
+
+    def _draw(self):
+        if not self.bag:
+            self.bag = ["idle", "turn", "sit", "box"]
+            self.rng.shuffle(self.bag)
+        return self.bag.pop()
+
+    def _run(self, state, n_edges=None, style=WALK):
+        n_edges = int(self.rng.integers(2, 5)) if n_edges is None else n_edges
+        bias = _steer_bias(state) / (n_edges + 1)
+        return act.run_group(self.skel, self.rng, state, self.fps, style, n_edges, lambda: bias)
+
+    def next(self, state, remaining):
+        """The next group from ``state`` given the seconds left in the take."""
+        if remaining < 12.0:
+            short = [k for k in self.queue if k in ("idle", "turn")]
+            if not short and not self.queue and self.bag:
+                short = [k for k in self.bag if k in ("idle", "turn")]
+                if short:                                 # take it from the bag now
+                    self.bag.remove(short[0])
+                    self.queue.append(short[0])
+            if short:
+                kind = short[0]
+                self.queue.remove(kind)
+            elif remaining > 8.0:
+                return self._run(state, n_edges=1)
+            else:
+                return act.idle(self.skel, self.rng, state, self.fps)
+        elif self.need_run or not self.queue:
+            self.need_run = False
+            if not self.queue:
+                self.queue = [self._draw() for _ in range(1 if self.rng.random() < 0.4 else 2)]
+            return self._run(state)
+        else:
+            kind = self.queue.pop(0)
+        if not self.queue:
+            self.need_run = True
+        if kind == "idle":
+            return act.idle(self.skel, self.rng, state, self.fps)
+        if kind == "turn":
+            return act.turn_in_place(self.skel, self.rng, state, self.fps, prefer=_steer_bias(state))
+        if kind == "sit":
+            return act.sit_cycle(self.skel, self.rng, state, self.fps)
+        bias = _steer_bias(state) * 0.3
+        return act.box_cycle(self.skel, self.rng, state, self.fps, lambda: bias)
+
+
+def _assemble(skel, groups, fps) -> Take:
+    parts, segs, hubs, props = [], [], [], []
+    f = 0
+    for i, g in enumerate(groups):
+        last = i == len(groups) - 1
+        parts.append(g.controls if last else g.controls.slice(0, g.num_frames))
+        segs += [(a + f, b + f, lab) for a, b, lab in g.segments]
+        hubs += [(h + f, n) for h, n in g.hubs]
+        for p in g.props:
+            q = dict(p)
+            q["start"] = int(p["start"]) + f
+            q["end"] = int(min(p["end"] + f, f + g.num_frames + (1 if last else 0)))
+            props.append(q)
+        f += g.num_frames
+    c = Controls.concat(parts)
+    F = c.num_frames
+    # the final frame (end hub) belongs to the last segment
+    a, b, lab = segs[-1]
+    segs[-1] = (a, F, lab)
+    end_hub = "stand"
+    hubs.append((F - 1, end_hub))
+    sol = solve(skel, c)
+    clip = Clip.from_world(skel, fps, sol.root_pos, sol.local)
+    diag = {
+        "max_leg_reach_error_m": float(sol.leg_reach_error.max()),
+        "max_arm_reach_error_m": float(sol.arm_reach_error.max()),
+        "max_knee_flexion_deg": float(np.degrees(sol.knee_flexion.max())),
+    }
+    return Take(clip, segs, hubs, props, diag)
+
+
+def generate_session(minutes: float, seed: int, fps: float = 30.0, take_minutes: float = 2.0,
+                     progress=None) -> list[Take]:
+    """Generate the takes of a session in memory. ``progress(seconds)`` is called as
+    motion is produced."""
+    if not (minutes > 0):
+        raise ValueError("minutes must be positive")
+    if not (take_minutes > 0):
+        raise ValueError("take minutes must be positive")
+    if not (fps > 0):
+        raise ValueError("fps must be positive")
+    rng = np.random.default_rng(np.random.SeedSequence(int(seed)))
+    skel = body.make_skeleton()
+    total = minutes * 60.0
+    n_takes = max(1, int(np.ceil(total / (take_minutes * 60.0) - 1e-9)))
+    lengths = [min(take_minutes * 60.0, total - i * take_minutes * 60.0) for i in range(n_takes)]
+    if n_takes > 1 and lengths[-1] < min(20.0, 0.5 * take_minutes * 60.0):   # fold a short remainder
+        lengths[-2] += lengths[-1]
+        lengths.pop()
+    sched = _Scheduler(rng, skel, fps)
+    takes = []
+    for target in lengths:
+        state = (0.0, 0.0, float(rng.uniform(-np.pi, np.pi)))
+        sched.need_run = True
+        groups = []
+        t = 0.0
+        while t < target - 2.0:
+            g = sched.next(state, target - t)
+            groups.append(g)
+            state = g.end
+            t += g.num_frames / fps
+            if progress is not None:
+                progress(g.num_frames / fps)
+        takes.append(_assemble(skel, groups, fps))
+    return takes
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def write_session(out_dir, minutes: float, seed: int, fps: float = 30.0, take_minutes: float = 2.0,
+                  progress=None) -> dict:
+    """Generate and write a session; returns the manifest (also written as session.json)."""
+    from authoring.bvh import write_bvh
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    takes = generate_session(minutes, seed, fps, take_minutes, progress)
+    files = []
+    take_rows = []
+    for i, tk in enumerate(takes):
+        bvh = out / f"take_{i:03d}.bvh"
+        lab = out / f"take_{i:03d}.labels.json"
+        write_bvh(bvh, tk.clip, channel_orders="ZYX", scale=body.CMU_UNIT, precision=6)
+        atomic_write_bytes(lab, (json.dumps(tk.labels_json(), indent=1) + "\n").encode("utf-8"))
+        counts = {}
+        for a, b, l in tk.segments:
+            counts[l] = counts.get(l, 0) + 1
+        take_rows.append({"bvh": bvh.name, "labels": lab.name, "frames": tk.clip.num_frames,
+                          "seconds": round(tk.clip.num_frames / fps, 4), "segments": counts,
+                          "diagnostics": {k: round(v, 6) for k, v in tk.diagnostics.items()}})
+        files += [bvh, lab]
+    manifest = {
+        "generator": "crowdweave.procedural",
+        "version": GENERATOR_VERSION,
+        "seed": int(seed),
+        "minutes": float(minutes),
+        "take_minutes": float(take_minutes),
+        "fps": float(fps),
+        "skeleton_family": "cmu-mb",
+        "bvh_scale_m_per_unit": body.CMU_UNIT,
+        "labels": list(LABELS),
+        "takes": take_rows,
+        "files": [{"path": p.name, "bytes": p.stat().st_size, "sha256": _sha256(p)} for p in files],
+    }
+    atomic_write_bytes(out / "session.json", (json.dumps(manifest, indent=1) + "\n").encode("utf-8"))
+    return manifest
