@@ -13,17 +13,13 @@ def configure(p):
 
 
 def run(args) -> int:
-    from authoring.capture_quality import take_quality
+    from authoring.capture_quality import format_quality, take_quality
     from authoring.default_library import default_capture_dir, ensure_library
     from runtime.motion.graph import MotionGraph
     path = ensure_library("default", progress=not args.quiet)
     cap = default_capture_dir()
-    q = take_quality(cap)
     print(f"\ndefault capture: {cap}")
-    for k in ("takes", "duration_s", "foot_contact_speed_cm_s", "max_knee_flexion_deg", "knee_hyperextension",
-              "label_counts"):
-        if k in q:
-            print(f"  {k}: {q[k]}")
+    print(format_quality(take_quality(cap)))
     s = MotionGraph.load(path).summary()
     print(f"\ndefault library: {path}")
     print(f"  {s['nodes']} hub nodes, {s['edges']} edges, {s['seconds']} s of motion, "

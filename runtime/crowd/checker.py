@@ -36,9 +36,11 @@ def _edge_of(graph, frames):
 def _source_position(graph, fa, fb, t):
     """(edge, fractional local frame) of each output frame."""
     eb = _edge_of(graph, fb)
-    ea = _edge_of(graph, fa)
     loc_b = fb - graph.edge_start[eb]
-    loc_a = np.where(ea == eb, fa - graph.edge_start[eb], loc_b - 1)  # crossing: a is the hub = local 0 of eb
+    # within one clip b follows a; otherwise a is the last frame of the previous clip, which is
+    # the hub pose = local frame 0 of b's clip (a self-loop clip repeats into itself)
+    inside = (fb == fa + 1) | (fb == fa)
+    loc_a = np.where(inside, fa - graph.edge_start[eb], loc_b - 1)
     # when t == 0 exactly and a is another edge's last frame, the pose is the hub: local 0 of eb
     return eb, loc_a + t.astype(np.float64) * (loc_b - loc_a)
 
@@ -75,7 +77,7 @@ def raw_increments(graph, track):
     e, phi = _source_position(graph, track.frames_a, track.frames_b, track.frames_t)
     c = _local_cfg(graph, e, phi)
     e0, e1 = e[:-1], e[1:]
-    same = e0 == e1
+    same = (e0 == e1) & (phi[1:] >= phi[:-1])
     inc = _relative(c[:-1], c[1:])
     # crossing into the next edge: to the end of the old edge, then from the new edge's hub
     end_local = _local_cfg(graph, e0, (graph.edge_start[e0 + 1] - graph.edge_start[e0] - 1).astype(np.float64))

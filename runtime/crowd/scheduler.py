@@ -98,7 +98,8 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     n_total = int(round(sc.duration * fps)) + 1
     index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * params.margin + 0.05))
     sdf = env.sdf(resolution=0.05, margin=2.0) if env is not None and (len(env.polygons) or len(env.circles)) else None
-    static = sdf.sample if sdf is not None else None
+    # the sampled field may overestimate clearance by up to max_error: stay conservative
+    static = (lambda xz: sdf.sample(xz) - sdf.max_error) if sdf is not None else None
     order = planning_order(sc)
     rng = np.random.default_rng(sc.seed)
     results: dict[int, CharacterResult] = {}

@@ -78,6 +78,8 @@ class SynthesisParams:
     sample_step: int = 3           # frames between collision samples in seeds
     margin: float = 0.02           # extra clearance (m) in collision tests
     max_seed_edges: int = 80
+    min_gain: float = 0.01         # metres (1 cm = 1 deg): smallest error decrease that counts
+    approach_radius: float = 2.0   # metres from the goal where the seed starts to mind orientation
     fps: float = 30.0
 
     @property
@@ -252,10 +254,21 @@ class SegmentPlanner:
         return np.min(np.atleast_2d(dist), axis=0)
 
     def greedy(self, start_node: int, start_cfg: np.ndarray, frame0: int, waypoints: np.ndarray,
-               final_heading, travel: int, target_nodes, reverse: bool, rng) -> tuple[list, int]:
+               final_heading, travel: int, target_nodes, reverse: bool, rng,
+               time_budget: float | None = None) -> tuple[list, int]:
         """Greedy seed motion (paper 000, section 3.2). ``reverse`` plans M_b on the
         time-reversed graph (edges walked from their end to their start). Returns
-        (edges in the walking order, last node)."""
+        (edges in the walking order, last node).
+
+        Each step takes, among the collision-free edges of the travel state that reduce the
+        error to the current way point, the one that brings the character closest to it; when
+        all of them increase it, the next way point becomes the target; at the last one the
+        error also counts orientation and the planner stops when it stops decreasing.
+        The paper's planner ignores time. With a ``time_budget`` (seconds to the goal) this
+        one prefers, among the improving edges, the one whose progress rate matches the rate
+        the budget asks for, and idles on the node's self-loop clips while time is in
+        surplus, so that the seeds are already close to the time window the search must meet.
+        """
         g, lib = self.g, self.lib
         src, dst = (g.edge_src, g.edge_dst) if not reverse else (g.edge_dst, g.edge_src)
         disp = lib.disp if not reverse else lib.disp_rev
@@ -285,22 +298,68 @@ class SegmentPlanner:
         last = len(waypoints) - 1
         tgt = None if target_nodes is None else np.asarray(target_nodes)
 
+        approach = self.p.approach_radius
+
         def err(cfgs, final):
+            # position error; near the goal (within the approach radius) orientation counts too
+            # (1 cm = 1 deg); far away it would make the character turn on the spot
             e = np.hypot(cfgs[..., 0] - waypoints[wi, 0], cfgs[..., 1] - waypoints[wi, 1])
             if final and final_heading is not None:
-                e = e + a1 * np.abs(wrap_angle(cfgs[..., 2] - final_heading))
+                e = e + np.where(e < approach, a1 * np.abs(wrap_angle(cfgs[..., 2] - final_heading)), a1 * np.pi)
             return e
 
+        seg_len = np.hypot(*np.diff(waypoints, axis=0).T) if len(waypoints) > 1 else np.zeros(0)
+        elapsed = 0.0
+        # out-edges of every node inside the travel state (CSR), for the two-edge lookahead
+        m_tr = np.flatnonzero(in_travel)
+        o = m_tr[np.argsort(src[m_tr], kind="stable")]
+        optr = np.searchsorted(src[o], np.arange(g.num_nodes + 1))
         while len(edges) < self.p.max_seed_edges:
             final = wi >= last
-            out = np.flatnonzero((src == node) & in_travel)
+            out = o[optr[node]:optr[node + 1]]
             if len(out) == 0:
                 break
             ends = compose(cfg[None], disp[out])
-            e = err(ends, final)
+            # lookahead: the best error reachable with one more edge after each candidate
+            cnt = optr[dst[out] + 1] - optr[dst[out]]
+            rep = np.repeat(np.arange(len(out)), cnt)
+            second = o[np.concatenate([np.arange(optr[d], optr[d + 1]) for d in dst[out]])] if cnt.sum() else np.zeros(0, np.int64)
+            ends2 = compose(ends[rep], disp[second])
+            e1 = err(ends, final)
+            e2 = err(ends2, final)
+            best2 = np.full(len(out), np.inf)
+            np.minimum.at(best2, rep, e2)
+            dur2 = np.full(len(out), np.inf)
+            if len(rep):
+                k2 = np.lexsort((e2, rep))
+                firsts = k2[np.concatenate([[True], rep[k2][1:] != rep[k2][:-1]])]
+                dur2[rep[firsts]] = lib.dur[second[firsts]]
+            use2 = best2 < e1
+            e = np.where(use2, best2, e1)
+            span = lib.dur[out] + np.where(use2, dur2, 0.0)
+            end_xz = ends[:, :2]
+            if len(rep):
+                bx = np.zeros((len(out), 2))
+                bx[rep[firsts]] = ends2[firsts, :2]
+                end_xz = np.where(use2[:, None], bx, end_xz)
             cur = float(err(cfg, final))
-            order = np.argsort(e, kind="stable")
-            order = order[e[order] < cur - 1e-9]
+            if time_budget is not None:
+                remaining = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1])) + float(seg_len[wi:].sum())
+                left = time_budget - elapsed
+                loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
+                if len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
+                    advance(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
+                    elapsed += float(lib.dur[edges[-1]])
+                    continue
+                want = remaining / max(left, 0.3)
+                pos_now = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1]))
+                pos_new = np.hypot(end_xz[:, 0] - waypoints[wi, 0], end_xz[:, 1] - waypoints[wi, 1])
+                rate = (pos_now - pos_new) / span
+                order = np.argsort(np.abs(rate - want) + 0.1 * (e - e.min()), kind="stable")
+            else:
+                order = np.argsort(e, kind="stable")
+            # "the error stops decreasing": an edge must gain at least min_gain (1 cm / 1 deg)
+            order = order[e[order] < cur - self.p.min_gain]
             pick = None
             if len(order):
                 cand = out[order[:12]]
@@ -315,6 +374,7 @@ class SegmentPlanner:
                     continue
                 break
             advance(pick)
+            elapsed += float(lib.dur[pick])
             if tgt is not None and node in tgt:
                 best = (list(edges), node, cfg.copy())
         if tgt is not None:
@@ -420,7 +480,11 @@ class SegmentPlanner:
         yield
         # forward seed
         tgt = goal.nodes
-        F0, f_end = self.greedy(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt, False, rng)
+        budget = None
+        if goal.window is not None:
+            budget = max(0.5, 0.5 * (goal.window[0] + goal.window[1]) - start.frame / p.fps)
+        F0, f_end = self.greedy(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt, False, rng,
+                                time_budget=budget)
         if not F0:
             # already as close as the graph gets: take the out-edge that ends nearest the goal,
             # so that the segment has a motion to adjust
@@ -449,7 +513,8 @@ class SegmentPlanner:
         goal_cfg = np.array([goal.position[0], goal.position[1], goal_h])
         goal_frame_est = start.frame + int(round(p.fps * (goal.window[0] if goal.window else 0)))
         B0r, _ = self.greedy(goal_node, goal_cfg, goal_frame_est, wps[::-1], start.heading, travel,
-                             np.array([start.node]) if g.node_state[start.node] == travel else None, True, rng)
+                             np.array([start.node]) if g.node_state[start.node] == travel else None, True, rng,
+                             time_budget=budget)
         B0 = B0r[::-1]
         yield
         self._start_node = int(start.node)
