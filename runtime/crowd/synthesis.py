@@ -79,7 +79,9 @@ class SynthesisParams:
     margin: float = 0.02           # extra clearance (m) in collision tests
     max_seed_edges: int = 80
     min_gain: float = 0.01         # metres (1 cm = 1 deg): smallest error decrease that counts
+    min_gain_rate: float = 0.1     # metres per second of motion: smallest rate of decrease that counts
     approach_radius: float = 2.0   # metres from the goal where the seed starts to mind orientation
+    splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
     fps: float = 30.0
 
     @property
@@ -355,17 +357,22 @@ class SegmentPlanner:
                 pos_now = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1]))
                 pos_new = np.hypot(end_xz[:, 0] - waypoints[wi, 0], end_xz[:, 1] - waypoints[wi, 1])
                 rate = (pos_now - pos_new) / span
-                order = np.argsort(np.abs(rate - want) + 0.1 * (e - e.min()), kind="stable")
+                # slow down by walking slower, not by wandering sideways: penalise the part of
+                # the travelled distance that is not progress
+                travelled = np.hypot(end_xz[:, 0] - cfg[0], end_xz[:, 1] - cfg[1])
+                waste = np.maximum(travelled - (pos_now - pos_new), 0.0) / span
+                order = np.argsort(np.abs(rate - want) + 0.5 * waste + 0.1 * (e - e.min()), kind="stable")
             else:
                 order = np.argsort(e, kind="stable")
             # "the error stops decreasing": an edge must gain at least min_gain (1 cm / 1 deg)
-            order = order[e[order] < cur - self.p.min_gain]
+            # and min_gain_rate per second of motion, or seeds creep on for tiny gains
+            order = order[e[order] < cur - np.maximum(self.p.min_gain, self.p.min_gain_rate * span[order])]
             pick = None
             if len(order):
                 cand = out[order[:12]]
                 ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
                                  np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
-                                 moving=not reverse)
+                                 moving=(not reverse) or time_budget is not None)
                 if ok.any():
                     pick = cand[np.argmax(ok)]
             if pick is None:
@@ -470,122 +477,174 @@ class SegmentPlanner:
 
     # -- the whole segment ------------------------------------------------------------------------------
     def run(self, start: Config, goal: Goal, rng: np.random.Generator, owner: int = -1, name: str = ""):
-        """Generator: yields after each bounded step; returns a :class:`SegmentResult`."""
+        """Generator: yields after each bounded step; returns a :class:`SegmentResult`.
+
+        Seeds are made from the roadmap's way points; the randomized search then runs on them.
+        When the search keeps finding splices below eps that collide with characters already
+        planned (section 3.3's final test), the seeds are made again through a detour way
+        point beside the first collision, alternately left and right and further out; the
+        iterations of all attempts count against N_max.
+        """
         g, lib, p = self.g, self.lib, self.p
         travel = self.travel_state(start.node, goal)
         if self.roadmap is not None and self.env is not None:
-            wps = self.roadmap.waypoints(self.env, np.array([start.x, start.z]), np.asarray(goal.position, float))
+            base = self.roadmap.waypoints(self.env, np.array([start.x, start.z]), np.asarray(goal.position, float))
         else:
-            wps = np.array([[start.x, start.z], goal.position], dtype=np.float64)
+            base = np.array([[start.x, start.z], goal.position], dtype=np.float64)
         yield
-        # forward seed
         tgt = goal.nodes
         budget = None
-        if goal.window is not None:
-            budget = max(0.5, 0.5 * (goal.window[0] + goal.window[1]) - start.frame / p.fps)
-        F0, f_end = self.greedy(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt, False, rng,
-                                time_budget=budget)
-        if not F0:
-            # already as close as the graph gets: take the out-edge that ends nearest the goal,
-            # so that the segment has a motion to adjust
-            out = g.out_edges(start.node)
-            out = out[g.edge_state[out] == travel] if np.any(g.edge_state[out] == travel) else out
-            ends = compose(start.xzh[None], lib.disp[out])
-            e0 = int(out[np.argmin(np.hypot(ends[:, 0] - goal.position[0], ends[:, 1] - goal.position[1]))])
-            F0, f_end = [e0], int(g.edge_dst[e0])
-        yield
-        if tgt is None:
-            # no pose constraint: end where the forward seed ends up (a node of the travel state)
-            end_nodes = np.array([f_end]) if g.node_state[f_end] == travel else np.flatnonzero(g.node_state == travel)[:1]
-        else:
-            end_nodes = np.asarray(tgt)
-        goal_node = int(end_nodes[0])
-        if tgt is not None and len(end_nodes) > 1:
-            # the pose node the forward seed reached, else the first
-            goal_node = int(f_end) if f_end in end_nodes else goal_node
-        goal_h = goal.heading
-        if goal_h is None:
-            # free orientation: the heading the forward seed arrives with
-            c = start.xzh
-            for e in F0:
-                c = compose(c, lib.disp[e])
-            goal_h = float(c[2])
-        goal_cfg = np.array([goal.position[0], goal.position[1], goal_h])
-        goal_frame_est = start.frame + int(round(p.fps * (goal.window[0] if goal.window else 0)))
-        B0r, _ = self.greedy(goal_node, goal_cfg, goal_frame_est, wps[::-1], start.heading, travel,
-                             np.array([start.node]) if g.node_state[start.node] == travel else None, True, rng,
-                             time_budget=budget)
-        B0 = B0r[::-1]
-        yield
-        self._start_node = int(start.node)
-        self._goal_node = goal_node
         window_rel = None
         if goal.window is not None:
+            budget = max(0.5, 0.5 * (goal.window[0] + goal.window[1]) - start.frame / p.fps)
             t0 = start.frame / p.fps
             window_rel = (goal.window[0] - t0, goal.window[1] - t0)
         eps_p = p.eps[0]
+        self._start_node = int(start.node)
+        queue = [base]
+        tried_detours = 0
+        iterations = 0
+        best_overall = None
+        result = None
+        goal_node = goal_cfg = None
+        per_attempt = max(60, p.n_max // 6)
+        while result is None and iterations < p.n_max and queue:
+            wps = queue.pop(0)
+            F0, f_end = self.greedy(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt, False, rng,
+                                    time_budget=budget)
+            if not F0:
+                # already as close as the graph gets: take the out-edge that ends nearest the goal,
+                # so that the segment has a motion to adjust
+                out = g.out_edges(start.node)
+                out = out[g.edge_state[out] == travel] if np.any(g.edge_state[out] == travel) else out
+                ends = compose(start.xzh[None], lib.disp[out])
+                e0 = int(out[np.argmin(np.hypot(ends[:, 0] - goal.position[0], ends[:, 1] - goal.position[1]))])
+                F0, f_end = [e0], int(g.edge_dst[e0])
+            yield
+            if goal_node is None:
+                if tgt is None:
+                    # no pose constraint: end in the node the forward seed ends in
+                    end_nodes = (np.array([f_end]) if g.node_state[f_end] == travel
+                                 else np.flatnonzero(g.node_state == travel)[:1])
+                else:
+                    end_nodes = np.asarray(tgt)
+                goal_node = int(f_end) if f_end in end_nodes else int(end_nodes[0])
+                goal_h = goal.heading
+                if goal_h is None:
+                    # free orientation: the heading the forward seed arrives with
+                    c = start.xzh
+                    for e in F0:
+                        c = compose(c, lib.disp[e])
+                    goal_h = float(c[2])
+                goal_cfg = np.array([goal.position[0], goal.position[1], goal_h])
+                self._goal_node = goal_node
+            # the backward seed runs back from the arrival: with a window, about its middle
+            goal_frame = int(round(p.fps * 0.5 * (goal.window[0] + goal.window[1]))) if goal.window else start.frame
+            B0r, _ = self.greedy(goal_node, goal_cfg, goal_frame, wps[::-1], start.heading, travel,
+                                 np.array([start.node]) if g.node_state[start.node] == travel else None, True, rng,
+                                 time_budget=budget)
+            B0 = B0r[::-1]
+            yield
+            out = yield from self._search(start, goal_cfg, goal_node, F0, B0, window_rel, travel, owner, rng,
+                                          min(per_attempt, p.n_max - iterations))
+            res, its, best, collision_at = out
+            iterations += its
+            if best is not None and (best_overall is None or best[0] < best_overall[0]):
+                best_overall = best
+            result = res
+            if result is None and collision_at is not None and tried_detours < 6:
+                # make a way point beside the first collision; try both sides, then further out
+                k = tried_detours
+                side = 1.0 if k % 2 == 0 else -1.0
+                off = (1.2, 2.2, 3.2)[k // 2]
+                cxz, direction = collision_at
+                perp = np.array([-direction[1], direction[0]])
+                detour = cxz + side * off * perp
+                if self.env is None or self.env.distance(detour[None])[0] > 0.5:
+                    seg = int(np.argmin(np.hypot(*(base[:-1] - cxz).T))) if len(base) > 2 else 0
+                    queue.append(np.concatenate([base[:seg + 1], detour[None], base[seg + 1:]]))
+                tried_detours += 1
+                if not queue:
+                    queue.append(base)
+            elif result is None and not queue:
+                queue.append(base)
+        if result is None:
+            cost, Frow, nf, Brow, nb, i, j = best_overall
+            res = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=True)
+            res.collided = self.final_collision(res, owner) is not None
+            res.ok = False
+            res.cost = cost
+            res.warning = (f"{name or 'character'}: no motion within eps after {iterations} iterations "
+                           f"(best cost {cost / eps_p:.2f} x eps{', collides' if res.collided else ''}); using the best pair")
+            result = res
+        result.iterations = iterations
+        return result
+
+    def _search(self, start, goal_cfg, goal_node, F0, B0, window_rel, travel, owner, rng, max_iter):
+        """The randomized search of section 3.3 on one seed pair (generator; returns
+        (result or None, iterations, best (cost, F, nf, B, nb, i, j), collision info))."""
+        lib, p = self.lib, self.p
+        eps_p = p.eps[0]
         Lf = max(len(F0), 1) + 8
         Lb = max(len(B0), 1) + 8
-
-        def pack(lists_f, lists_b):
-            n = len(lists_f)
-            Fa = -np.ones((n, Lf), dtype=np.int64)
-            Ba = -np.ones((n, Lb), dtype=np.int64)
-            for r, (f, b) in enumerate(zip(lists_f, lists_b)):
-                Fa[r, :len(f)] = f
-                if len(b):
-                    Ba[r, Lb - len(b):] = b
-            return Fa, Ba
-
-        Fp, Bp = pack([F0], [B0])
+        Fp = -np.ones((1, Lf), dtype=np.int64)
+        Bp = -np.ones((1, Lb), dtype=np.int64)
+        Fp[0, :len(F0)] = F0
+        if len(B0):
+            Bp[0, Lb - len(B0):] = B0
         nfp = np.array([len(F0)])
         nbp = np.array([len(B0)])
         costp, ip, jp = self.pair_costs(Fp, nfp, Bp, nbp, start.xzh, goal_cfg, window_rel)
+        best = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
         rejected = set()
-        best_overall = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
+        collision_at = None
         iterations = 0
-        result = None
 
-        def try_accept(cost, Frow, nf, Brow, nb, i, j):
+        def try_accept(cost, Frow, i, Brow, j):
+            nonlocal collision_at
             key = (tuple(Frow[:i]), tuple(Brow[j:][Brow[j:] >= 0]))
             if key in rejected:
                 return None
+            rejected.add(key)
             res = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel)
             if res is None:
-                rejected.add(key)
                 return None
-            rates = res.rates
-            if rates[0] > p.eps[0] * (1 + 1e-9) or rates[1] > p.eps[1] * (1 + 1e-9) or rates[2] > p.eps[2] * (1 + 1e-9):
-                rejected.add(key)
+            tol = 1 + 1e-9
+            if res.rates[0] > p.eps[0] * tol or res.rates[1] > p.eps[1] * tol or res.rates[2] > p.eps[2] * tol:
                 return None
-            if self.final_collision(res, owner):
-                rejected.add(key)
+            hit = self.final_collision(res, owner)
+            if hit is not None:
+                if collision_at is None:
+                    k = hit
+                    a, b = max(k - 3, 0), min(k + 3, len(res.root) - 1)
+                    d = res.root[b, :2] - res.root[a, :2]
+                    n = np.hypot(*d)
+                    d = d / n if n > 1e-6 else np.array([np.sin(res.root[k, 2]), np.cos(res.root[k, 2])])
+                    collision_at = (res.root[k, :2].copy(), d)
                 return None
             res.cost = float(cost)
             return res
 
         if np.isfinite(costp[0]) and costp[0] <= eps_p:
-            result = try_accept(costp[0], Fp[0], nfp[0], Bp[0], nbp[0], ip[0], jp[0])
-        while result is None and iterations < p.n_max:
+            res = try_accept(costp[0], Fp[0], ip[0], Bp[0], jp[0])
+            if res is not None:
+                return res, 0, best, None
+        P = p.n_m
+        while iterations < max_iter:
             iterations += 1
             K = len(costp)
-            P = p.n_m
             parent = rng.integers(0, K, size=P)
             Fn = Fp[parent].copy()
             Bn = Bp[parent].copy()
             nfn = nfp[parent].copy()
             nbn = nbp[parent].copy()
-            # pick which motion to perturb and a clip that has an alternative
+            # which motion to perturb, and a clip of it that has a parallel alternative
             fa = (Fn >= 0) & lib.has_alt[np.maximum(Fn, 0)]
             ba = (Bn >= 0) & lib.has_alt[np.maximum(Bn, 0)]
             use_f = rng.random(P) < 0.5
             use_f = np.where(fa.any(1) & ~ba.any(1), True, np.where(ba.any(1) & ~fa.any(1), False, use_f))
-            mask = np.where(use_f[:, None], fa, False)
-            keys = rng.random((P, Lf)) * mask
-            col_f = np.argmax(keys, axis=1)
-            maskb = np.where(~use_f[:, None], ba, False)
-            keysb = rng.random((P, Lb)) * maskb
-            col_b = np.argmax(keysb, axis=1)
+            col_f = np.argmax(rng.random((P, Lf)) * np.where(use_f[:, None], fa, False), axis=1)
+            col_b = np.argmax(rng.random((P, Lb)) * np.where(~use_f[:, None], ba, False), axis=1)
             u = rng.random(P)
             rowf = np.flatnonzero(use_f & fa.any(1))
             if len(rowf):
@@ -595,38 +654,29 @@ class SegmentPlanner:
                 Bn[rowb, col_b[rowb]] = lib.sample_alternatives(Bn[rowb, col_b[rowb]], u[rowb])
             cn, inn, jn = self.pair_costs(Fn, nfn, Bn, nbn, start.xzh, goal_cfg, window_rel)
             order = np.argsort(cn, kind="stable")
-            for r in order:
+            for r in order[:p.splices_per_iteration]:
                 if not (cn[r] <= eps_p):
                     break
-                result = try_accept(cn[r], Fn[r], nfn[r], Bn[r], nbn[r], inn[r], jn[r])
-                if result is not None:
-                    break
-            if result is not None:
-                break
+                res = try_accept(cn[r], Fn[r], inn[r], Bn[r], jn[r])
+                if res is not None:
+                    return res, iterations, best, None
             # keep the k_m best of old and new
             allc = np.concatenate([costp, cn])
-            allF = np.concatenate([Fp, Fn])
-            allB = np.concatenate([Bp, Bn])
-            alln = np.concatenate([nfp, nfn])
-            allnb = np.concatenate([nbp, nbn])
-            alli = np.concatenate([ip, inn])
-            allj = np.concatenate([jp, jn])
             keep = np.argsort(allc, kind="stable")[:p.k_m]
-            Fp, Bp, nfp, nbp, costp, ip, jp = allF[keep], allB[keep], alln[keep], allnb[keep], allc[keep], alli[keep], allj[keep]
-            if costp[0] < best_overall[0]:
-                best_overall = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
+            Fp = np.concatenate([Fp, Fn])[keep]
+            Bp = np.concatenate([Bp, Bn])[keep]
+            nfp = np.concatenate([nfp, nfn])[keep]
+            nbp = np.concatenate([nbp, nbn])[keep]
+            ip = np.concatenate([ip, inn])[keep]
+            jp = np.concatenate([jp, jn])[keep]
+            costp = allc[keep]
+            if costp[0] < best[0]:
+                best = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
+            if collision_at is not None and iterations >= 20 and costp[0] <= eps_p:
+                # below eps but colliding for a while: better seeds are needed
+                break
             yield
-        if result is None:
-            cost, Frow, nf, Brow, nb, i, j = best_overall
-            res = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=True)
-            res.collided = self.final_collision(res, owner)
-            res.ok = False
-            res.cost = cost
-            res.warning = (f"{name or 'character'}: no motion within eps after {iterations} iterations "
-                           f"(best cost {cost / eps_p:.2f} x eps{', collides' if res.collided else ''}); using the best pair")
-            result = res
-        result.iterations = iterations
-        return result
+        return None, iterations, best, collision_at
 
     # -- splice (steps 1-4) -------------------------------------------------------------------------------
     def splice(self, start: Config, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=False):
@@ -733,13 +783,17 @@ class SegmentPlanner:
         return SegmentResult(True, src_frames[a], src_frames[b], t.astype(np.float32), root, start.frame, end,
                              0.0, rates, 0, edges)
 
-    def final_collision(self, res: SegmentResult, owner: int) -> bool:
+    def final_collision(self, res: SegmentResult, owner: int):
+        """First output frame whose bounding cylinder hits an obstacle or a planned character,
+        or None (the final test of section 3.3)."""
         g, p = self.g, self.p
         frames = res.start_frame + np.arange(len(res.root))
         rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
         xz = res.root[:, :2]
-        if self.static is not None and np.any(self.static(xz) < rad):
-            return True
-        if self.collide is not None and np.any(self.collide(frames, xz, rad)):
-            return True
-        return False
+        bad = np.zeros(len(xz), dtype=bool)
+        if self.static is not None:
+            bad |= self.static(xz) < rad
+        if self.collide is not None:
+            bad |= np.asarray(self.collide(frames, xz, rad), dtype=bool)
+        hit = np.flatnonzero(bad)
+        return int(hit[0]) if len(hit) else None
