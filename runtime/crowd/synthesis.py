@@ -183,6 +183,37 @@ class MotionLibrary:
         # adjacency for fewest-edge paths
         self.adj = csr_matrix((np.ones(E), (g.edge_src, g.edge_dst)), shape=(N, N))
         self.max_radius = float(g.frame_radius.max()) if len(g.frame_radius) else 0.5
+        self._lookahead = {}
+
+    def lookahead(self, reverse: bool, travel: int):
+        """Per node: its out-edges inside the travel state and, for each, every two-edge
+        continuation as one composed displacement, padded to a dense table
+        ``(out (d1,), comb (d1, d2, 3) NaN-padded, dur2 (d1, d2) inf-padded)``. Built once per
+        (direction, state) and cached: the greedy seed planner's lookahead is then two
+        vectorized compositions per step."""
+        key = (bool(reverse), int(travel))
+        if key in self._lookahead:
+            return self._lookahead[key]
+        g = self.g
+        src, dst = (g.edge_src, g.edge_dst) if not reverse else (g.edge_dst, g.edge_src)
+        disp = self.disp if not reverse else self.disp_rev
+        m = np.flatnonzero(g.edge_state == travel)
+        o = m[np.argsort(src[m], kind="stable")]
+        optr = np.searchsorted(src[o], np.arange(g.num_nodes + 1))
+        table = []
+        for n in range(g.num_nodes):
+            out = o[optr[n]:optr[n + 1]]
+            d2 = int(max((optr[dst[e] + 1] - optr[dst[e]] for e in out), default=0))
+            comb = np.full((len(out), max(d2, 1), 3), np.nan)
+            dur2 = np.full((len(out), max(d2, 1)), np.inf)
+            for k, e in enumerate(out):
+                e2 = o[optr[dst[e]]:optr[dst[e] + 1]]
+                if len(e2):
+                    comb[k, :len(e2)] = compose(disp[e][None], disp[e2])
+                    dur2[k, :len(e2)] = self.dur[e2]
+            table.append((out, comb, dur2))
+        self._lookahead[key] = table
+        return table
 
     def sample_alternatives(self, edges: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Replacement clips for ``edges`` (all must have alternatives), u ~ U[0, 1)."""
@@ -312,38 +343,24 @@ class SegmentPlanner:
 
         seg_len = np.hypot(*np.diff(waypoints, axis=0).T) if len(waypoints) > 1 else np.zeros(0)
         elapsed = 0.0
-        # out-edges of every node inside the travel state (CSR), for the two-edge lookahead
-        m_tr = np.flatnonzero(in_travel)
-        o = m_tr[np.argsort(src[m_tr], kind="stable")]
-        optr = np.searchsorted(src[o], np.arange(g.num_nodes + 1))
+        table = lib.lookahead(reverse, travel)
         while len(edges) < self.p.max_seed_edges:
             final = wi >= last
-            out = o[optr[node]:optr[node + 1]]
+            out, comb, dur2 = table[node]
             if len(out) == 0:
                 break
             ends = compose(cfg[None], disp[out])
             # lookahead: the best error reachable with one more edge after each candidate
-            cnt = optr[dst[out] + 1] - optr[dst[out]]
-            rep = np.repeat(np.arange(len(out)), cnt)
-            second = o[np.concatenate([np.arange(optr[d], optr[d + 1]) for d in dst[out]])] if cnt.sum() else np.zeros(0, np.int64)
-            ends2 = compose(ends[rep], disp[second])
+            ends2 = compose(cfg[None, None], comb)
+            e2 = np.nan_to_num(err(ends2, final), nan=np.inf)
+            k2 = np.argmin(e2, axis=1)
+            rows = np.arange(len(out))
+            best2 = e2[rows, k2]
             e1 = err(ends, final)
-            e2 = err(ends2, final)
-            best2 = np.full(len(out), np.inf)
-            np.minimum.at(best2, rep, e2)
-            dur2 = np.full(len(out), np.inf)
-            if len(rep):
-                k2 = np.lexsort((e2, rep))
-                firsts = k2[np.concatenate([[True], rep[k2][1:] != rep[k2][:-1]])]
-                dur2[rep[firsts]] = lib.dur[second[firsts]]
             use2 = best2 < e1
             e = np.where(use2, best2, e1)
-            span = lib.dur[out] + np.where(use2, dur2, 0.0)
-            end_xz = ends[:, :2]
-            if len(rep):
-                bx = np.zeros((len(out), 2))
-                bx[rep[firsts]] = ends2[firsts, :2]
-                end_xz = np.where(use2[:, None], bx, end_xz)
+            span = lib.dur[out] + np.where(use2, dur2[rows, k2], 0.0)
+            end_xz = np.where(use2[:, None], ends2[rows, k2, :2], ends[:, :2])
             cur = float(err(cfg, final))
             if time_budget is not None:
                 remaining = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1])) + float(seg_len[wi:].sum())
