@@ -26,7 +26,7 @@ def default_capture_dir() -> Path:
 def build_default_library(log=print, progress=True) -> Path:
     from tqdm import tqdm
 
-    from authoring.motion_graph.build import BuildParams, build_graph
+    from authoring.motion_graph.build import BUILDER_VERSION, BuildParams, build_graph
     from authoring.motion_graph.sources import load_takes
     from authoring.procedural import GENERATOR_VERSION, write_session
     cap = default_capture_dir()
@@ -41,6 +41,7 @@ def build_default_library(log=print, progress=True) -> Path:
     with tqdm(total=frames, desc="frame distances", unit="frame", disable=quiet) as bar:
         g = build_graph(takes, BuildParams(), progress=bar.update, log=log)
     g.meta["generator_version"] = GENERATOR_VERSION
+    g.meta["builder_version"] = BUILDER_VERSION
     out = default_library_path()
     g.save(out)
     log(f"default library: {g.num_nodes} nodes, {g.num_edges} edges, {g.total_seconds:.0f} s -> {out}")
@@ -54,13 +55,15 @@ def ensure_library(name_or_path="default", base: Path | None = None, log=print, 
         if not p.exists():
             raise AssetError(p, "motion library not found")
         return p
+    from authoring.motion_graph.build import BUILDER_VERSION
     from authoring.procedural import GENERATOR_VERSION
     if p.exists():
         try:
             g = MotionGraph.load(p)
-            if g.meta.get("generator_version") == GENERATOR_VERSION:
+            if (g.meta.get("generator_version") == GENERATOR_VERSION
+                    and g.meta.get("builder_version") == BUILDER_VERSION):
                 return p
-            log("default library is from an older generator; rebuilding")
+            log("default library was built by an older generator or builder; rebuilding")
         except AssetError as e:
             log(f"default library unusable ({e.reason}); rebuilding")
     return build_default_library(log=log, progress=progress)

@@ -36,3 +36,11 @@ def random_clip(rng, frames=40, n=12, fps=30.0, smooth=True):
         rots = quat.normalize(rng.normal(size=(frames, n, 4)))
         pos = rng.normal(size=(frames, 3))
     return Clip.from_world(sk, fps, pos, rots)
+
+
+@pytest.fixture(scope="session")
+def default_graph():
+    """The default motion library (built on first use into CROWDWEAVE_CACHE or ~/.cache)."""
+    from authoring.default_library import ensure_library
+    from runtime.motion.graph import MotionGraph
+    return MotionGraph.load(ensure_library("default", log=lambda *a: None, progress=False))

@@ -21,7 +21,10 @@ from .hubs import find_candidates, pick_hubs
 from .labels import NODE_LABEL, STATES, TRANSITIONS, state_classes, state_of_label
 from .snap import cut_edges, snap_take
 
-__all__ = ["Take", "BuildParams", "build_graph", "prune"]
+__all__ = ["Take", "BuildParams", "build_graph", "prune", "BUILDER_VERSION"]
+
+# Bump when the builder's output for the same takes changes (invalidates cached libraries).
+BUILDER_VERSION = 2
 
 
 @dataclass
@@ -37,7 +40,9 @@ class BuildParams:
     fps: float = 30.0
     threshold_cm: float = 6.0        # RMS point-cloud distance below which frames match
     half_window: int = 4             # distance window: 2 * half_window + 1 frames
-    min_edge_frames: int = 12        # occurrences (and so edges) at least this far apart
+    min_edge_frames: int = 20        # occurrences (and so edges) at least this far apart: with 2/3 s,
+                                     # walking edges hold a whole gait cycle, so parallel edges of
+                                     # one node pair turn by up to +-90 deg
     min_occurrences: int = 3
     max_hubs: int = 40
     snap_window: int = 8             # frames over which the snap displacement fades
