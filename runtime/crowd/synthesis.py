@@ -81,6 +81,7 @@ class SynthesisParams:
     min_gain: float = 0.01         # metres (1 cm = 1 deg): smallest error decrease that counts
     min_gain_rate: float = 0.1     # metres per second of motion: smallest rate of decrease that counts
     approach_radius: float = 2.0   # metres from the goal where the seed starts to mind orientation
+    facing_weight: float = 0.3     # metres per radian of facing away from the next way point (seeds)
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
     fps: float = 30.0
 
@@ -286,10 +287,19 @@ class SegmentPlanner:
         dist = shortest_path(A, unweighted=True, indices=np.asarray(targets), directed=True)
         return np.min(np.atleast_2d(dist), axis=0)
 
-    def greedy(self, start_node: int, start_cfg: np.ndarray, frame0: int, waypoints: np.ndarray,
-               final_heading, travel: int, target_nodes, reverse: bool, rng,
-               time_budget: float | None = None) -> tuple[list, int]:
-        """Greedy seed motion (paper 000, section 3.2). ``reverse`` plans M_b on the
+    def greedy(self, *args, **kwargs) -> tuple[list, int]:
+        """:meth:`greedy_steps` run to completion."""
+        gen = self.greedy_steps(*args, **kwargs)
+        try:
+            while True:
+                next(gen)
+        except StopIteration as stop:
+            return stop.value
+
+    def greedy_steps(self, start_node: int, start_cfg: np.ndarray, frame0: int, waypoints: np.ndarray,
+                     final_heading, travel: int, target_nodes, reverse: bool, rng,
+                     time_budget: float | None = None):
+        """Generator (yields after every edge it adds) of a greedy seed motion (paper 000, section 3.2). ``reverse`` plans M_b on the
         time-reversed graph (edges walked from their end to their start). Returns
         (edges in the walking order, last node).
 
@@ -333,13 +343,22 @@ class SegmentPlanner:
 
         approach = self.p.approach_radius
 
+        face_w = self.p.facing_weight
+        face_off = np.pi if reverse else 0.0   # played backwards, a clip travels against its facing
+
         def err(cfgs, final):
-            # position error; near the goal (within the approach radius) orientation counts too
-            # (1 cm = 1 deg); far away it would make the character turn on the spot
-            e = np.hypot(cfgs[..., 0] - waypoints[wi, 0], cfgs[..., 1] - waypoints[wi, 1])
+            # position error, plus how far the character faces away from the way point (so
+            # turning on the spot counts as progress); near the goal (within the approach
+            # radius) the goal orientation counts instead (1 cm = 1 deg)
+            dx = waypoints[wi, 0] - cfgs[..., 0]
+            dz = waypoints[wi, 1] - cfgs[..., 1]
+            e = np.hypot(dx, dz)
+            bearing = np.arctan2(dx, dz)
+            facing = face_w * np.abs(wrap_angle(cfgs[..., 2] + face_off - bearing)) * np.minimum(e, 1.0)
             if final and final_heading is not None:
-                e = e + np.where(e < approach, a1 * np.abs(wrap_angle(cfgs[..., 2] - final_heading)), a1 * np.pi)
-            return e
+                near = e < approach
+                return e + np.where(near, a1 * np.abs(wrap_angle(cfgs[..., 2] - final_heading)), a1 * np.pi + facing)
+            return e + facing
 
         seg_len = np.hypot(*np.diff(waypoints, axis=0).T) if len(waypoints) > 1 else np.zeros(0)
         elapsed = 0.0
@@ -399,6 +418,7 @@ class SegmentPlanner:
                 break
             advance(pick)
             elapsed += float(lib.dur[pick])
+            yield
             if tgt is not None and node in tgt:
                 best = (list(edges), node, cfg.copy())
         if tgt is not None:
@@ -527,8 +547,8 @@ class SegmentPlanner:
         per_attempt = max(60, p.n_max // 6)
         while result is None and iterations < p.n_max and queue:
             wps = queue.pop(0)
-            F0, f_end = self.greedy(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt, False, rng,
-                                    time_budget=budget)
+            F0, f_end = yield from self.greedy_steps(start.node, start.xzh, start.frame, wps, goal.heading, travel,
+                                                     tgt, False, rng, time_budget=budget)
             if not F0:
                 # already as close as the graph gets: take the out-edge that ends nearest the goal,
                 # so that the segment has a motion to adjust
@@ -557,9 +577,9 @@ class SegmentPlanner:
                 self._goal_node = goal_node
             # the backward seed runs back from the arrival: with a window, about its middle
             goal_frame = int(round(p.fps * 0.5 * (goal.window[0] + goal.window[1]))) if goal.window else start.frame
-            B0r, _ = self.greedy(goal_node, goal_cfg, goal_frame, wps[::-1], start.heading, travel,
-                                 np.array([start.node]) if g.node_state[start.node] == travel else None, True, rng,
-                                 time_budget=budget)
+            B0r, _ = yield from self.greedy_steps(goal_node, goal_cfg, goal_frame, wps[::-1], start.heading, travel,
+                                                  np.array([start.node]) if g.node_state[start.node] == travel else None,
+                                                  True, rng, time_budget=budget)
             B0 = B0r[::-1]
             yield
             out = yield from self._search(start, goal_cfg, goal_node, F0, B0, window_rel, travel, owner, rng,
