@@ -82,6 +82,8 @@ class SynthesisParams:
     min_gain_rate: float = 0.1     # metres per second of motion: smallest rate of decrease that counts
     approach_radius: float = 2.0   # metres from the goal where the seed starts to mind orientation
     facing_weight: float = 0.3     # metres per radian of facing away from the next way point (seeds)
+    lookahead_width: int = 12      # second-level edges per node in the seeds' two-edge lookahead
+    sweep: int = 100               # perturbations per iteration spent on every alternative of one clip
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
     fps: float = 30.0
 
@@ -201,14 +203,24 @@ class MotionLibrary:
         m = np.flatnonzero(g.edge_state == travel)
         o = m[np.argsort(src[m], kind="stable")]
         optr = np.searchsorted(src[o], np.arange(g.num_nodes + 1))
+        # the second level only needs representative continuations: at most ``width`` edges
+        # per node, evenly spread over the range of heading change (then distance)
+        width = self.params.lookahead_width
+        reps = []
+        for n in range(g.num_nodes):
+            e2 = o[optr[n]:optr[n + 1]]
+            if len(e2) > width:
+                srt = e2[np.lexsort((np.hypot(disp[e2, 0], disp[e2, 1]), disp[e2, 2]))]
+                e2 = srt[np.unique(np.round(np.linspace(0, len(srt) - 1, width)).astype(int))]
+            reps.append(e2)
         table = []
         for n in range(g.num_nodes):
             out = o[optr[n]:optr[n + 1]]
-            d2 = int(max((optr[dst[e] + 1] - optr[dst[e]] for e in out), default=0))
+            d2 = int(max((len(reps[dst[e]]) for e in out), default=0))
             comb = np.full((len(out), max(d2, 1), 3), np.nan)
             dur2 = np.full((len(out), max(d2, 1)), np.inf)
             for k, e in enumerate(out):
-                e2 = o[optr[dst[e]]:optr[dst[e] + 1]]
+                e2 = reps[dst[e]]
                 if len(e2):
                     comb[k, :len(e2)] = compose(disp[e][None], disp[e2])
                     dur2[k, :len(e2)] = self.dur[e2]
@@ -689,6 +701,19 @@ class SegmentPlanner:
             rowb = np.flatnonzero(~use_f & ba.any(1))
             if len(rowb):
                 Bn[rowb, col_b[rowb]] = lib.sample_alternatives(Bn[rowb, col_b[rowb]], u[rowb])
+            # sweeps on the best pair (still clip replacement between the same nodes): odd
+            # iterations try every alternative of one random clip; even ones try every
+            # combination of alternatives of two adjacent clips and keep the combinations that
+            # bring that motion's free end closest to its target (gait-cycle clips differ a
+            # lot, so a good pair is rarely improved by one random swap)
+            sw = min(p.sweep, P)
+            if sw:
+                rows_new = self._sweep(Fp[0], nfp[0], Bp[0], nbp[0], start.xzh, goal_cfg, rng, sw,
+                                       pair=iterations % 2 == 0)
+                if rows_new is not None:
+                    Fs, Bs = rows_new
+                    k = len(Fs)
+                    Fn[P - k:], Bn[P - k:], nfn[P - k:], nbn[P - k:] = Fs, Bs, nfp[0], nbp[0]
             cn, inn, jn = self.pair_costs(Fn, nfn, Bn, nbn, start.xzh, goal_cfg, window_rel)
             order = np.argsort(cn, kind="stable")
             for r in order[:p.splices_per_iteration]:
@@ -819,6 +844,61 @@ class SegmentPlanner:
         # exact end: the last frame is the goal configuration by construction
         return SegmentResult(True, src_frames[a], src_frames[b], t.astype(np.float32), root, start.frame, end,
                              0.0, rates, 0, edges)
+
+    def _sweep(self, Frow, nf, Brow, nb, start_cfg, goal_cfg, rng, k, pair):
+        """Candidate rows from exhaustive replacement at one or two adjacent clip positions of
+        one motion of the best pair (see :meth:`_search`). Returns (F rows, B rows) or None."""
+        lib = self.lib
+        Lb = len(Brow)
+        fpos = np.flatnonzero((Frow >= 0) & lib.has_alt[np.maximum(Frow, 0)])
+        bpos = np.flatnonzero((Brow >= 0) & lib.has_alt[np.maximum(Brow, 0)])
+        if len(fpos) + len(bpos) == 0:
+            return None
+        on_f = rng.random() < len(fpos) / (len(fpos) + len(bpos))
+        row = Frow if on_f else Brow
+        pos = fpos if on_f else bpos
+        c0 = int(pos[rng.integers(0, len(pos))])
+        cols = [c0]
+        if pair and (c0 + 1) in set(pos.tolist()):
+            cols.append(c0 + 1)
+        elif pair and (c0 - 1) in set(pos.tolist()):
+            cols.insert(0, c0 - 1)
+        options = [np.concatenate([[row[c]], lib.alt_idx[lib.alt_ptr[row[c]]:lib.alt_ptr[row[c] + 1]]]) for c in cols]
+        grid = np.stack(np.meshgrid(*options, indexing="ij"), axis=-1).reshape(-1, len(cols))
+        if len(cols) == 2 and len(grid) > k:
+            # score every combination by where the motion's free end lands
+            a1 = self.p.alpha[0]
+            if on_f:
+                edges = [int(e) for e in row[:nf]]
+                pre = start_cfg.copy()
+                for e in edges[:cols[0]]:
+                    pre = compose(pre, lib.disp[e])
+                mid = compose(compose(pre[None], lib.disp[grid[:, 0]]), lib.disp[grid[:, 1]])
+                for e in edges[cols[1] + 1:]:
+                    mid = compose(mid, np.broadcast_to(lib.disp[e], mid.shape))
+                tgt = goal_cfg
+            else:
+                edges = [int(e) for e in row[Lb - nb:]]
+                c_first = cols[0] - (Lb - nb)
+                post = goal_cfg.copy()
+                for e in edges[c_first + 2:][::-1]:
+                    post = compose_inverse(post, lib.disp[e])
+                mid = compose_inverse(compose_inverse(np.broadcast_to(post, (len(grid), 3)), lib.disp[grid[:, 1]]),
+                                      lib.disp[grid[:, 0]])
+                for e in edges[:c_first][::-1]:
+                    mid = compose_inverse(mid, np.broadcast_to(lib.disp[e], mid.shape))
+                tgt = start_cfg
+            err = np.hypot(mid[:, 0] - tgt[0], mid[:, 1] - tgt[1]) + a1 * np.abs(wrap_angle(mid[:, 2] - tgt[2]))
+            grid = grid[np.argsort(err, kind="stable")[:k]]
+        else:
+            grid = grid[1:k + 1] if len(grid) > 1 else grid
+        n = len(grid)
+        Fs = np.repeat(Frow[None], n, 0)
+        Bs = np.repeat(Brow[None], n, 0)
+        tgt_rows = Fs if on_f else Bs
+        for q, c in enumerate(cols):
+            tgt_rows[:, c] = grid[:, q]
+        return Fs, Bs
 
     def final_collision(self, res: SegmentResult, owner: int):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,
