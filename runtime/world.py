@@ -384,8 +384,12 @@ class World:
             self._plan_queue.append(c)
 
     def _plan(self):
+        """Planner steps until the budget is spent (at least one step per tick, so planning
+        always progresses)."""
         t_end = time.perf_counter() + self.budget
-        while time.perf_counter() < t_end:
+        first = True
+        while first or time.perf_counter() < t_end:
+            first = False
             if self._active is None:
                 while self._plan_queue and self._active is None:
                     c = self._plan_queue.popleft()
