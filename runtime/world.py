@@ -122,7 +122,6 @@ class World:
         self._plan_queue: deque = deque()
         self._active: _Char | None = None
         self.index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 0.1))
-        self._index_rebuilt = 0
         self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "characters": 0, "queue": 0, "ticks": 0}
         self._static = None
         if self.env is not None and (len(self.env.polygons) or len(self.env.circles)):
@@ -444,8 +443,7 @@ class World:
             else:
                 self._append_idle(c, 1.0)
         self._announce()
-        if self.frame - self._index_rebuilt > 300:
-            self._rebuild_index()
+        self.index.forget_before(self.frame)
         self.stats.update(tick_ms=(time.perf_counter() - t0) * 1000, plan_ms=plan_ms,
                           characters=int(act.sum()), queue=len(self._plan_queue) + (self._active is not None),
                           ticks=self.stats["ticks"] + 1)
@@ -467,16 +465,6 @@ class World:
                            marker=pend.marker, frame=f)
                 if not c.arrivals and not c.goals and c.state is CharacterState.MOVING:
                     c.state = CharacterState.IDLE
-
-    def _rebuild_index(self):
-        idx = SpaceTimeIndex(cell=self.index.cell)
-        for s in np.flatnonzero(self.active):
-            frames = np.arange(self.frame, self.tail[s] + 1)
-            k = frames % MAX_BUFFER
-            rad = np.maximum(self.graph.frame_radius[self.buf_a[s, k]], self.graph.frame_radius[self.buf_b[s, k]])
-            idx.insert(int(s), frames, self.buf_root[s, k, :2], rad)
-        self.index = idx
-        self._index_rebuilt = self.frame
 
     def _emit(self, kind, name, **data):
         ev = Event(kind, name, self.frame / self.fps, data)

@@ -1,0 +1,53 @@
+import numpy as np
+
+from runtime.crowd.spacetime import SpaceTimeIndex
+
+
+def brute(stored, frames, xz, r, margin=0.0, ignore=None):
+    hit = np.zeros(len(frames), bool)
+    for owner, (f, p, rad) in stored.items():
+        if owner == ignore:
+            continue
+        for k in range(len(frames)):
+            m = f == frames[k]
+            if np.any(np.hypot(*(p[m] - xz[k]).T) < rad[m] + r[k] + margin):
+                hit[k] = True
+    return hit
+
+
+def test_matches_brute_force_through_removals_and_merges():
+    rng = np.random.default_rng(0)
+    idx = SpaceTimeIndex(cell=1.3)
+    stored = {}
+    for step in range(40):
+        o = int(rng.integers(0, 12))
+        n = int(rng.integers(5, 80))
+        f = rng.integers(0, 30, n)
+        p = rng.uniform(-6, 6, (n, 2))
+        rad = rng.uniform(0.2, 0.6, n)
+        if o in stored and rng.random() < 0.5:
+            idx.remove_owner(o)          # a re-plan replaces the character's samples
+            del stored[o]
+        if o in stored:
+            f0, p0, r0 = stored[o]
+            stored[o] = (np.concatenate([f0, f]), np.concatenate([p0, p]), np.concatenate([r0, rad]))
+        else:
+            stored[o] = (f, p, rad)
+        idx.insert(o, f, p, rad)
+        qf = rng.integers(0, 30, 50)
+        qp = rng.uniform(-6, 6, (50, 2))
+        qr = rng.uniform(0.2, 0.6, 50)
+        ign = int(rng.integers(0, 12))
+        np.testing.assert_array_equal(idx.overlaps(qf, qp, qr, margin=0.02, ignore_owner=ign),
+                                      brute(stored, qf, qp, qr, 0.02, ign))
+    assert len(idx._runs) <= 2 + int(np.log2(max(idx.count, 2)))   # merged like a binary counter
+
+
+def test_forget_before_drops_played_frames_at_merges():
+    idx = SpaceTimeIndex(cell=1.2)
+    idx.insert(0, np.arange(100), np.zeros((100, 2)), 0.3)
+    idx.forget_before(50)
+    for k in range(6):
+        idx.insert(1 + k, np.arange(100), np.full((100, 2), 10.0 + 3 * k), 0.3)
+    assert idx.count < 700
+    assert idx.overlaps(np.array([60]), np.array([[0.0, 0.0]]), np.array([0.3]))[0]
