@@ -108,7 +108,9 @@ class World:
         self.budget = budget_ms / 1000.0
         # online planning gives up sooner than the paper's offline N_max = 1000: a character
         # that cannot be planned must not hold the queue for seconds
-        self.params = params or SynthesisParams(fps=self.fps, n_max=150)
+        # and each step is kept small (n_m perturbations per iteration) so that one step fits
+        # well inside the per-tick budget
+        self.params = params or SynthesisParams(fps=self.fps, n_max=150, n_m=48, k_m=16, sweep=24)
         self.lib = MotionLibrary(self.graph, self.params)
         self.rng = np.random.default_rng(seed)
         self.frame = 0
@@ -254,10 +256,11 @@ class World:
         return self.buf_root[c.slot, self.head[c.slot] % MAX_BUFFER].copy()
 
     # ------------------------------------------------------------------ commands (queued)
-    def go_to(self, name, position, heading=None, arrive=None):
+    def go_to(self, name, position, heading=None, arrive=None, queue: bool = False):
         """Walk to ``position`` (x, z), optionally facing ``heading`` (radians) and arriving in
-        the absolute time window ``arrive = (t0, t1)`` seconds."""
-        self._commands.append(("go_to", name, np.asarray(position, float), heading, arrive, None))
+        the absolute time window ``arrive = (t0, t1)`` seconds. A new go_to replaces goals that
+        are still waiting for the planner unless ``queue`` is True (then it comes after them)."""
+        self._commands.append(("go_to", name, np.asarray(position, float), heading, arrive, queue))
 
     def sit(self, name, seat):
         self._commands.append(("sit", name, None, None, None, seat))
@@ -300,11 +303,12 @@ class World:
         try:
             g = self.graph
             if kind == "go_to":
-                nodes = None
-                if c.carrying:
-                    nodes = None
-                goal = Goal(pos, heading, nodes, tuple(arrive) if arrive else None, label="go_to")
+                goal = Goal(pos, heading, None, tuple(arrive) if arrive else None, label="go_to")
                 pend = _Pending(goal, "go_to")
+                if not marker:      # replace: drop goals nobody has started planning
+                    keep = 1 if c.state is CharacterState.PLANNING and c.goals else 0
+                    while len(c.goals) > keep:
+                        c.goals.pop()
             elif kind == "sit":
                 m = self._marker(marker, "seat")
                 pend = _Pending(Goal(m.position.copy(), m.heading, g.nodes_with_label("sit")), "sit", marker)
@@ -347,7 +351,7 @@ class World:
         pend = c.goals[0]
         start = self._handoff(c)
         planner = SegmentPlanner(self.lib, static=self._static,
-                                 collide=lambda f, xz, r, s=c.slot: self.index.overlaps(f, xz, r, ignore_owner=s),
+                                 collide=lambda f, xz, r, s=c.slot: self._collide(f, xz, r, s),
                                  roadmap=self.roadmap, env=self.env, params=self.params)
         goal = pend.goal
         if goal.window is not None and goal.window[1] < (start.frame + 1) / self.fps:
@@ -357,6 +361,25 @@ class World:
         c.job_goal = pend
         c.job_handoff = start
         c.state = CharacterState.PLANNING
+
+    def _collide(self, frames, xz, radius, owner):
+        """Samples that hit another character: its buffered future (space-time index), and
+        beyond its last buffered frame the place where it will stand (idling there)."""
+        hit = self.index.overlaps(frames, xz, radius, ignore_owner=owner)
+        s = np.flatnonzero(self.active)
+        s = s[s != owner]
+        if len(s) == 0:
+            return hit
+        txz = self.buf_root[s, self.tail[s] % MAX_BUFFER, :2]
+        late = frames[:, None] > self.tail[s][None, :]
+        if not late.any():
+            return hit
+        near = (np.abs(xz[:, None, 0] - txz[None, :, 0]) < 1.5) & (np.abs(xz[:, None, 1] - txz[None, :, 1]) < 1.5) & late
+        q, k = np.nonzero(near)
+        if len(q):
+            d = np.hypot(xz[q, 0] - txz[k, 0], xz[q, 1] - txz[k, 1])
+            hit[q[d < radius[q] + 0.35]] = True
+        return hit
 
     def _finish_job(self, c: _Char, res):
         pend = c.goals.popleft()

@@ -26,7 +26,7 @@ from scipy.spatial import cKDTree
 
 from ..motion import quat
 
-__all__ = ["check_crowd", "adjustment_rates", "summarize"]
+__all__ = ["check_crowd", "adjustment_rates", "summarize", "overlapping_pairs", "obstacle_overlaps"]
 
 
 def _edge_of(graph, frames):
@@ -196,28 +196,44 @@ def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=
     R = np.stack([np.maximum(graph.frame_radius[tracks[n].frames_a[:F]], graph.frame_radius[tracks[n].frames_b[:F]])
                   for n in names], axis=1).astype(np.float64)     # (F, C)
     XZ = np.stack([tracks[n].root[:F, :2] for n in names], axis=1)  # (F, C, 2)
-    rmax = R.max() if R.size else 0.0
-    pair_hits = {}
-    for f in range(F):
-        tree = cKDTree(XZ[f])
-        pairs = tree.query_pairs(2 * rmax, output_type="ndarray")
-        if len(pairs) == 0:
-            continue
-        d = np.hypot(*(XZ[f, pairs[:, 0]] - XZ[f, pairs[:, 1]]).T)
-        over = d < R[f, pairs[:, 0]] + R[f, pairs[:, 1]]
-        for i, j in pairs[over]:
-            key = (names[min(i, j)], names[max(i, j)])
-            pair_hits[key] = pair_hits.get(key, 0) + 1
-    obstacle_hits = {}
-    if env is not None and (len(env.polygons) or len(env.circles)):
-        dist = env.distance(XZ.reshape(-1, 2)).reshape(F, len(names))
-        bad = dist < R
-        for ci in np.flatnonzero(bad.any(axis=0)):
-            obstacle_hits[names[ci]] = int(bad[:, ci].sum())
+    pair_hits = {(names[i], names[j]): k for (i, j), k in overlapping_pairs(XZ, R).items()}
+    obstacle_hits = {names[c]: k for c, k in obstacle_overlaps(XZ, R, env).items()}
     return {"goals": goal_rows, "characters": per_char,
             "character_overlaps": [{"a": a, "b": b, "frames": n} for (a, b), n in sorted(pair_hits.items())],
             "obstacle_overlaps": [{"character": k, "frames": v} for k, v in sorted(obstacle_hits.items())],
             "summary": summarize(goal_rows, per_char, pair_hits, obstacle_hits)}
+
+
+def overlapping_pairs(XZ: np.ndarray, R: np.ndarray, valid: np.ndarray | None = None) -> dict:
+    """Frames of overlap per character pair: XZ (F, C, 2) root positions, R (F, C) cylinder
+    radii, valid (F, C) which characters exist at each frame. Returns {(i, j): frames}."""
+    F = XZ.shape[0]
+    rmax = float(R.max()) if R.size else 0.0
+    hits = {}
+    for f in range(F):
+        cols = np.arange(XZ.shape[1]) if valid is None else np.flatnonzero(valid[f])
+        if len(cols) < 2:
+            continue
+        pairs = cKDTree(XZ[f, cols]).query_pairs(2 * rmax, output_type="ndarray")
+        if len(pairs) == 0:
+            continue
+        a, b = cols[pairs[:, 0]], cols[pairs[:, 1]]
+        over = np.hypot(*(XZ[f, a] - XZ[f, b]).T) < R[f, a] + R[f, b]
+        for i, j in zip(a[over], b[over]):
+            key = (int(min(i, j)), int(max(i, j)))
+            hits[key] = hits.get(key, 0) + 1
+    return hits
+
+
+def obstacle_overlaps(XZ: np.ndarray, R: np.ndarray, env, valid: np.ndarray | None = None) -> dict:
+    """Frames inside an obstacle (distance below the radius) per character: {c: frames}."""
+    if env is None or not (len(env.polygons) or len(env.circles)):
+        return {}
+    F, C = XZ.shape[:2]
+    bad = env.distance(XZ.reshape(-1, 2)).reshape(F, C) < R
+    if valid is not None:
+        bad &= valid
+    return {int(c): int(bad[:, c].sum()) for c in np.flatnonzero(bad.any(axis=0))}
 
 
 def summarize(goal_rows, per_char, pair_hits, obstacle_hits) -> dict:

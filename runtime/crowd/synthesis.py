@@ -84,6 +84,7 @@ class SynthesisParams:
     facing_weight: float = 0.3     # metres per radian of facing away from the next way point (seeds)
     lookahead_width: int = 12      # second-level edges per node in the seeds' two-edge lookahead
     sweep: int = 100               # perturbations per iteration spent on every alternative of one clip
+    sweep_pairs: int = 2000        # two-clip combinations scored per pair sweep (a random subset)
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
     fps: float = 30.0
 
@@ -719,6 +720,7 @@ class SegmentPlanner:
             for r in order[:p.splices_per_iteration]:
                 if not (cn[r] <= eps_p):
                     break
+                yield   # each splice + collision test is its own step (time slicing)
                 res = try_accept(cn[r], Fn[r], inn[r], Bn[r], jn[r])
                 if res is not None:
                     return res, iterations, best, None
@@ -866,16 +868,21 @@ class SegmentPlanner:
         options = [np.concatenate([[row[c]], lib.alt_idx[lib.alt_ptr[row[c]]:lib.alt_ptr[row[c] + 1]]]) for c in cols]
         grid = np.stack(np.meshgrid(*options, indexing="ij"), axis=-1).reshape(-1, len(cols))
         if len(cols) == 2 and len(grid) > k:
-            # score every combination by where the motion's free end lands
+            if len(grid) > self.p.sweep_pairs:
+                keep = rng.choice(len(grid) - 1, size=self.p.sweep_pairs - 1, replace=False) + 1
+                grid = np.concatenate([grid[:1], grid[np.sort(keep)]])
+            # score every combination by where the motion's free end lands: the clips before
+            # and after the two positions are one fixed transform each
             a1 = self.p.alpha[0]
             if on_f:
                 edges = [int(e) for e in row[:nf]]
                 pre = start_cfg.copy()
                 for e in edges[:cols[0]]:
                     pre = compose(pre, lib.disp[e])
-                mid = compose(compose(pre[None], lib.disp[grid[:, 0]]), lib.disp[grid[:, 1]])
+                suf = np.zeros(3)
                 for e in edges[cols[1] + 1:]:
-                    mid = compose(mid, np.broadcast_to(lib.disp[e], mid.shape))
+                    suf = compose(suf, lib.disp[e])
+                mid = compose(compose(compose(pre[None], lib.disp[grid[:, 0]]), lib.disp[grid[:, 1]]), suf[None])
                 tgt = goal_cfg
             else:
                 edges = [int(e) for e in row[Lb - nb:]]
@@ -883,10 +890,12 @@ class SegmentPlanner:
                 post = goal_cfg.copy()
                 for e in edges[c_first + 2:][::-1]:
                     post = compose_inverse(post, lib.disp[e])
-                mid = compose_inverse(compose_inverse(np.broadcast_to(post, (len(grid), 3)), lib.disp[grid[:, 1]]),
-                                      lib.disp[grid[:, 0]])
-                for e in edges[:c_first][::-1]:
-                    mid = compose_inverse(mid, np.broadcast_to(lib.disp[e], mid.shape))
+                pre_d = np.zeros(3)
+                for e in edges[:c_first]:
+                    pre_d = compose(pre_d, lib.disp[e])
+                mid = compose_inverse(compose_inverse(compose_inverse(np.broadcast_to(post, (len(grid), 3)),
+                                                                      lib.disp[grid[:, 1]]), lib.disp[grid[:, 0]]),
+                                      pre_d[None])
                 tgt = start_cfg
             err = np.hypot(mid[:, 0] - tgt[0], mid[:, 1] - tgt[1]) + a1 * np.abs(wrap_angle(mid[:, 2] - tgt[2]))
             grid = grid[np.argsort(err, kind="stable")[:k]]
