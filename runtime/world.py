@@ -363,11 +363,13 @@ class World:
         c.state = CharacterState.PLANNING
 
     def _collide(self, frames, xz, radius, owner):
-        """Samples that hit another character: its buffered future (space-time index), and
-        beyond its last buffered frame the place where it will stand (idling there)."""
+        """Samples that hit another character: its buffered future (space-time index), and,
+        for characters with nothing left to plan, beyond their last buffered frame the place
+        where they will stand idling. (Vectorized over samples and characters.)"""
         hit = self.index.overlaps(frames, xz, radius, ignore_owner=owner)
-        s = np.flatnonzero(self.active)
-        s = s[s != owner]
+        # characters with goals still to plan will move away: only the others stay put
+        s = np.array([i for i in np.flatnonzero(self.active)
+                      if i != owner and not self._slots[i].goals], dtype=np.int64)
         if len(s) == 0:
             return hit
         txz = self.buf_root[s, self.tail[s] % MAX_BUFFER, :2]
