@@ -97,11 +97,12 @@ def frame_features(positions_per_take, joint_weights: np.ndarray, half_window: i
                          np.concatenate(takes), 1.0)
 
 
-def distance_rows(f: FrameFeatures, rows: slice | np.ndarray, cols: slice | np.ndarray = slice(None)):
+def distance_rows(f: FrameFeatures, rows: slice | np.ndarray, cols: slice | np.ndarray = slice(None),
+                  with_angle: bool = True):
     """D for a block of rows x cols (RMS-normalised: metres^2 per unit weight).
 
     Returns (D, theta) where theta is the best alignment angle (rotation of the column frame's
-    cloud onto the row frame's cloud about +Y).
+    cloud onto the row frame's cloud about +Y), or None when ``with_angle`` is False.
     """
     A = f.xz[rows] @ f.xz[cols].T
     B = f.xz[rows] @ f.xz_perp[cols].T
@@ -109,7 +110,7 @@ def distance_rows(f: FrameFeatures, rows: slice | np.ndarray, cols: slice | np.n
     r = np.sqrt(A * A + B * B)
     D = f.sq[rows][:, None] + f.sq[cols][None, :] - 2.0 * C - 2.0 * r
     np.maximum(D, 0.0, out=D)
-    return D, np.arctan2(B, A)
+    return D, (np.arctan2(B, A) if with_angle else None)
 
 
 def pair_distance(f: FrameFeatures, i: int, j: int) -> float:

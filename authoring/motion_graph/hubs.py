@@ -53,7 +53,7 @@ def find_candidates(f: FrameFeatures, threshold: float, state_cls: np.ndarray, c
     cols_l, dist_l = [], []
     for s in range(0, N, chunk):
         e = min(N, s + chunk)
-        D, _ = distance_rows(f, slice(s, e))
+        D, _ = distance_rows(f, slice(s, e), with_angle=False)
         rows = np.arange(s, e)
         # forbid trivial neighbours and incompatible / invalid columns
         same_take = f.take[rows][:, None] == f.take[None, :]
