@@ -1,0 +1,194 @@
+"""Benchmark: viewer frame rate under software rendering (llvmpipe), 500 and 2000 characters.
+
+Each run renders the example world with a :class:`runtime.viewer.TrackScene` of N characters
+(wandering the default library; the area grows with N so density stays about one character per
+4 m^2) at 1280x720, the camera framing every character (the worst case: all on screen). The full
+frame loop runs for ``--seconds`` after a warm-up: events, scene step (ticks at 30 Hz), pose
+interpolation, all draws, HUD, ``glFinish`` (so a frame's time includes the rasterizer's work).
+
+Columns: frames per second of the whole loop, and of the same frames with the scene paused (the
+viewer's own cost); median milliseconds (live run) of the scene step, the pose
+fetch (``scene.joint_positions``), the CPU side of rendering and the wait for GL to finish; the
+figures' level-of-detail split; and the character pass alone (bone buffers + impostor draws,
+bracketed by ``glFinish``) against the baseline in the same process -- the conventional
+instanced capsule mesh, one instance per bone (``runtime.viewer.baseline``) -- as a ratio; and
+the frame rate of ENVIRONMENT.md's reference renderer (20-bone line figures) on the same figures
+in the same run, which calibrates how fast this machine is at the moment (it is often shared):
+the viewer's frame rate relative to it, times the reference's recorded idle-machine rate, is an
+estimate for an idle machine (labelled as such).
+
+Backends: ``--mode headless`` (EGL, default) or ``--mode xvfb`` (starts a private Xvfb and opens a
+real window). The machine may be shared: the load average is printed. No asserts.
+
+    CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/viewer.py [--counts 500,2000] [--seconds 6]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import select
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def start_xvfb():
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        raise SystemExit("Xvfb is not installed (apt-get install -y xvfb), or use --mode headless")
+    r, w = os.pipe()
+    proc = subprocess.Popen([exe, "-displayfd", str(w), "-screen", "0", "1280x720x24", "-nolisten", "tcp"],
+                            pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(w)
+    line = _read_line(r, 20.0)
+    if not line:
+        proc.kill()
+        raise SystemExit("Xvfb did not start")
+    os.environ["DISPLAY"] = ":" + line
+    proc._displayfd = r        # keep the pipe open while Xvfb runs (closing it early is fatal to it)
+    return proc
+
+
+def _read_line(fd, timeout):
+    """The display number Xvfb writes to -displayfd, up to its newline."""
+    buf, end = b"", time.monotonic() + timeout
+    while not buf.endswith(b"\n"):
+        ready, _, _ = select.select([fd], [], [], max(0.0, end - time.monotonic()))
+        if not ready:
+            break
+        chunk = os.read(fd, 64)
+        if not chunk:
+            break
+        buf += chunk
+    return buf.decode().strip()
+
+
+def gl_time(fn, gl):
+    gl.glFinish()
+    t0 = time.perf_counter()
+    fn()
+    gl.glFinish()
+    return (time.perf_counter() - t0) * 1e3
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--counts", default="500,2000")
+    ap.add_argument("--seconds", type=float, default=6.0)
+    ap.add_argument("--mode", choices=("headless", "xvfb"), default="headless")
+    ap.add_argument("--width", type=int, default=1280)
+    ap.add_argument("--height", type=int, default=720)
+    ap.add_argument("--baseline-frames", type=int, default=3)
+    ap.add_argument("--screenshot-dir", default=None, help="save the last frame of each run here")
+    args = ap.parse_args(argv)
+    xvfb = start_xvfb() if args.mode == "xvfb" else None
+    try:
+        run(args)
+    finally:
+        if xvfb is not None:
+            xvfb.terminate()
+            xvfb.wait(10)
+            os.close(xvfb._displayfd)
+
+
+def run(args):
+    from runtime.viewer import TrackScene, headless, make_viewer
+    headless.configure(args.mode == "headless")
+    from pyglet import gl
+
+    from runtime.library import load_library
+    from runtime.viewer.baseline import InstancedCapsules, LineFigures
+    from usd_io.world import read_world
+
+    graph = load_library("default")
+    env = read_world(ROOT / "samples" / "example_world" / "world.usda")
+    rows = []
+    for n in [int(c) for c in args.counts.split(",")]:
+        half = max(10.0, float(np.sqrt(4.0 * n)) / 2)
+        area = (-half, -half, half, half)
+        scene = TrackScene(graph, n, env, seed=1, area=area)
+        viewer = make_viewer(scene, headless=(args.mode == "headless"), width=args.width, height=args.height)
+        viewer.camera.frame(area, margin=0.8)
+        viewer.run(max_frames=5)                       # warm-up: shader compilation, first ticks
+        times = {k: [] for k in ("step", "poses", "render", "gl wait")}
+        frames = 0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < args.seconds:
+            viewer.run(max_frames=1)
+            frames += 1
+            for k in times:
+                times[k].append(viewer._frame_ms.get(k, 0.0))
+        elapsed = time.perf_counter() - t0
+        fps = frames / elapsed
+        # the same scene paused: the viewer's own cost (the stand-in scene's ticks excluded)
+        viewer.paused = True
+        pf, t1 = 0, time.perf_counter()
+        while time.perf_counter() - t1 < max(1.0, args.seconds / 2):
+            viewer.run(max_frames=1)
+            pf += 1
+        fps_paused = pf / (time.perf_counter() - t1)
+        viewer.paused = False
+        renderer_name = gl.gl_info.get_renderer()
+        if args.screenshot_dir:
+            Path(args.screenshot_dir).mkdir(parents=True, exist_ok=True)
+            viewer.save_screenshot(Path(args.screenshot_dir) / f"viewer_{n}.png")
+        lod = dict(viewer.renderer.lod_counts)
+        bones = viewer.renderer.num_bones
+        # the character pass alone: impostors vs the instanced-mesh baseline, same positions
+        w, h = viewer.framebuffer_size()
+        view, proj = viewer.camera.view(), viewer.camera.projection(w, h)
+        P = np.asarray(scene.joint_positions()).copy()
+        gl.glEnable(gl.GL_DEPTH_TEST)
+        imp = [gl_time(lambda: viewer.renderer.draw_characters(view, proj, w, h, P), gl) for _ in range(5)]
+        baseline = InstancedCapsules(scene.skeleton)        # GL objects live with this viewer's context
+        gl_time(lambda: baseline.draw_characters(view, proj, w, h, P), gl)  # warm-up (shader compile)
+        base = [gl_time(lambda: baseline.draw_characters(view, proj, w, h, P), gl) for _ in range(args.baseline_frames)]
+        # calibration: ENVIRONMENT.md's line-figure renderer, same figures, same run
+        lines = LineFigures(scene.skeleton)
+        lf, t2 = 0, time.perf_counter()
+        while time.perf_counter() - t2 < max(1.0, args.seconds / 3):
+            lines.draw_frame(view, proj, w, h, np.asarray(scene.joint_positions()))
+            gl.glFinish()
+            viewer.window.flip()
+            lf += 1
+        fps_lines = lf / (time.perf_counter() - t2)
+        rows.append((n, frames, fps, fps_paused, {k: float(np.median(v)) for k, v in times.items()}, lod, bones,
+                     float(np.median(imp)), float(np.median(base)), fps_lines))
+        viewer.close()
+    load = os.getloadavg()
+    print(f"viewer frame rate, {args.mode} ({renderer_name}), {args.width}x{args.height}, "
+          f"example world + TrackScene, camera framing all characters, {args.seconds:g} s per run")
+    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs")
+    print()
+    head = (f"{'chars':>6} {'frames':>6} {'fps':>6} {'paused':>6} {'step ms':>8} {'poses ms':>8} {'render ms':>9} "
+            f"{'GL wait':>8} {'LOD near/far':>13} | {'char pass ms':>12} {'instanced ms':>12} {'ratio':>6} | "
+            f"{'lines fps':>9} {'paused/lines':>12}")
+    print(head)
+    print("-" * len(head))
+    for n, frames, fps, fps_paused, t, lod, bones, imp, base, fl in rows:
+        print(f"{n:>6} {frames:>6} {fps:>6.1f} {fps_paused:>6.1f} {t['step']:>8.2f} {t['poses']:>8.2f} "
+              f"{t['render']:>9.2f} {t['gl wait']:>8.2f} {lod.get('near', 0):>6}/{lod.get('far', 0):<6} | "
+              f"{imp:>12.1f} {base:>12.1f} {base / imp:>5.1f}x | {fl:>9.1f} {fps_paused / fl:>12.2f}")
+    print()
+    print("char pass = the character pass alone (near figures: 14 ray-cast capsule impostors each; far figures:")
+    print("one screen-space quad each); instanced = one instance of an 8-sided capsule mesh per bone, 14 per figure.")
+    print("fps = the whole loop with the scene ticking at 30 Hz; paused = the same frame, scene not stepping.")
+    print("lines fps = ENVIRONMENT.md's reference renderer (20-bone line figures, one VBO + glBufferSubData) on")
+    print("the same figures in the same run; ENVIRONMENT.md records 500 ~225 fps, 2000 ~70-97 fps on an idle machine.")
+    ref = {500: 225.0, 2000: 83.0}
+    for n, _, fps, fps_paused, *rest in rows:
+        fl = rest[-1]
+        line = f"{n} characters: {fps:.1f} fps live, {fps_paused:.1f} fps paused"
+        if n in ref:
+            line += (f"; scaled to an idle machine by the line-figure calibration ({ref[n]:g} / {fl:.1f}): "
+                     f"~{fps_paused * ref[n] / fl:.0f} fps paused, ~{fps * ref[n] / fl:.0f} fps live")
+        print(line + (" (target >= 30 fps)" if n == 2000 else ""))
+
+
+if __name__ == "__main__":
+    main()

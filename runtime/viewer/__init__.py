@@ -1,0 +1,97 @@
+"""The crowdweave viewer (issue 5, point 4): a pyglet window or headless EGL renderer for any
+*scene source*.
+
+pyglet's GL modules are imported only inside this package, and lazily: importing
+``runtime.viewer`` loads no GL (pyglet's window backend is chosen once per process, see
+:mod:`runtime.viewer.headless`). :func:`run_viewer` selects the backend, then imports the
+window and renderer.
+
+Scene protocol
+--------------
+The viewer reads a scene through these attributes (a :class:`runtime.World` provides them;
+:class:`TrackScene` is a stand-in):
+
+Required
+
+* ``scene.environment`` -- :class:`runtime.crowd.environment.Environment`: obstacles are drawn
+  as their footprints extruded, seats/boxes/spawn points/regions from its markers. Read when the
+  viewer starts and again whenever the attribute refers to a different object.
+* ``scene.skeleton`` -- :class:`runtime.motion.skeleton.Skeleton` shared by all characters
+  (its joint names choose the figure style; CMU names give shaded capsule-limbed people).
+* ``scene.joint_positions()`` -> array (N, J, 3): every character's joint world positions at the
+  current render time (interpolated between ticks, e.g. :meth:`runtime.pose.PoseBatch.positions`).
+  Character ``i`` is row ``i``; joint 0 is the root (used for picking, shadows, selection ring).
+* ``scene.step(dt)``: advance the scene by ``dt`` seconds of simulated time (the scene runs its
+  own fixed-timestep accumulator). The viewer passes real frame time times the time scale, and
+  ``scene.dt`` for a single step.
+
+Optional
+
+* ``scene.dt`` -- tick length in seconds (default 1/30), used by single-step ('.').
+* ``scene.flock_positions()`` -> ``(positions (M, 3), headings (M,))`` of flock agents, drawn as
+  oriented arrowheads (heading radians about +Y, 0 facing +Z).
+* ``scene.hud_stats()`` -> dict of name -> value shown in the HUD in order (e.g. ``"tick ms"``,
+  ``"synthesis ms"``, ``"characters"``, ``"queue"``); the viewer adds fps, render ms, speed.
+* ``scene.select(i)`` -- told when character ``i`` (or None) is selected by a click.
+* ``scene.command_go_to(i, xz)`` -- right-click on the ground with character ``i`` selected;
+  ``xz`` is a float64 array (2,) in metres.
+* ``scene.obstacle_heights`` -- sequence of heights (m) per obstacle in ``environment``
+  order (polygons then circles); default 1 m.
+* ``scene.box_positions()`` -> array (K, 4): bottom-centre x, y, z and heading of every box
+  (0.4 m crates), drawn instead of the environment's static box markers -- for scenes whose
+  characters pick boxes up and carry them.
+
+Entry points
+------------
+* :func:`run_viewer` ``(scene, headless=False, seconds=None, screenshot=None, width=1280,
+  height=720)`` -- choose the backend, open the viewer, run the frame loop (until the window
+  closes, or for ``seconds``), save the last frame as a PNG; returns a
+  :class:`~runtime.viewer.window.FrameInfo` with the frame count and fps, the framebuffer size,
+  the camera's ``view_projection`` (4x4, column vectors) and the joint positions drawn in the
+  last frame. :func:`project` ``(view_projection, points, width, height)`` maps world points to
+  pixels (origin bottom-left; PNG row = height - 1 - y).
+* :func:`make_viewer` -- the same without running: a :class:`~runtime.viewer.window.Viewer`
+  with ``camera`` (:class:`OrbitCamera`), ``view_projection()``, ``project(points)``,
+  ``pick(x, y)``, ``go_to(x, y)``, ``run(...)``, ``draw()``, ``save_screenshot(path)``, and the
+  pyglet event handlers (``on_mouse_press`` etc.) that input goes through.
+
+Input: left click selects the character whose projected root is nearest the pointer (within
+40 px); left drag orbits, middle or Shift+left drag pans, the wheel zooms; right click on the
+ground calls ``scene.command_go_to(selected, xz)`` (ray-plane intersection with y = 0); Space
+pauses, '.' steps one tick, +/- double/halve the time scale, F follows the selection, H hides the
+HUD, Esc quits.
+"""
+from __future__ import annotations
+
+from .camera import OrbitCamera, project
+from .scene import TrackScene
+
+__all__ = ["run_viewer", "make_viewer", "TrackScene", "OrbitCamera", "project"]
+
+
+def make_viewer(scene, headless: bool | None = False, width: int = 1280, height: int = 720, **kwargs):
+    """Select pyglet's backend (headless EGL, or a window on ``$DISPLAY``; ``None`` = headless
+    when there is no display) and create a :class:`~runtime.viewer.window.Viewer` for ``scene``."""
+    from . import headless as _headless
+    _headless.configure(headless)
+    from .window import Viewer
+    return Viewer(scene, width=width, height=height, **kwargs)
+
+
+def run_viewer(scene, headless: bool | None = False, seconds: float | None = None, screenshot=None,
+               width: int = 1280, height: int = 720, max_frames: int | None = None, min_frames: int = 1,
+               camera=None, **kwargs):
+    """Open the viewer on ``scene`` and run until the window closes, or for ``seconds`` /
+    ``max_frames``; save the last frame to ``screenshot`` (PNG) if given.
+
+    ``camera`` (optional) is a callable ``f(viewer.camera)`` to position the camera before the
+    first frame. Returns a :class:`~runtime.viewer.window.FrameInfo`: frame count, fps, the
+    framebuffer size, the view-projection matrix and the joint positions of the last frame (so a
+    caller can project world points into the screenshot with :func:`project`)."""
+    viewer = make_viewer(scene, headless=headless, width=width, height=height, **kwargs)
+    try:
+        if camera is not None:
+            camera(viewer.camera)
+        return viewer.run(seconds=seconds, screenshot=screenshot, max_frames=max_frames, min_frames=min_frames)
+    finally:
+        viewer.close()
