@@ -14,6 +14,7 @@ import sys
 # name -> (module, one-line help). Order is the order shown by --help.
 COMMANDS = {
     "demo": ("authoring.commands.demo", "the main job: generate the default capture and summarise it"),
+    "run": ("authoring.commands.run", "open a sample world in the viewer, its crowd planned live"),
     "capture": ("authoring.commands.capture", "generate procedural motion-capture takes (BVH + labels)"),
     "info": ("authoring.commands.info", "summarise a BVH file, a take directory or a .cwpack"),
     "convert": ("authoring.commands.convert", "convert a BVH file to USD (UsdSkel)"),

@@ -125,6 +125,8 @@ class World:
         self._active: _Char | None = None
         self.index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 0.1))
         self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "characters": 0, "queue": 0, "ticks": 0}
+        self.selected = None
+        self._box_place: dict = {}     # boxes put down somewhere else: path -> (x, z, heading)
         self._static = None
         if self.env is not None and (len(self.env.polygons) or len(self.env.circles)):
             sdf = self.env.sdf(resolution=0.05, margin=2.0)
@@ -305,7 +307,7 @@ class World:
             if kind == "go_to":
                 goal = Goal(pos, heading, None, tuple(arrive) if arrive else None, label="go_to")
                 pend = _Pending(goal, "go_to")
-                if not marker:      # replace: drop goals nobody has started planning
+                if not marker:      # replace: drop goals nobody has started planning (queue=False)
                     keep = 1 if c.state is CharacterState.PLANNING and c.goals else 0
                     while len(c.goals) > keep:
                         c.goals.pop()
@@ -484,6 +486,10 @@ class World:
                 if pend.kind == "pick_up":
                     c.carrying = pend.marker
                 if pend.kind == "put_down":
+                    if c.carrying:
+                        r0 = self.buf_root[c.slot, f % MAX_BUFFER]
+                        fwd = (math.sin(r0[2]), math.cos(r0[2]))
+                        self._box_place[c.carrying] = (r0[0] + BOX_REACH * fwd[0], r0[1] + BOX_REACH * fwd[1], r0[2])
                     c.carrying = None
                 r = self.buf_root[c.slot, f % MAX_BUFFER]
                 self._emit(kind, c.name, position=(float(r[0]), float(r[1])), heading=float(r[2]),
@@ -548,3 +554,71 @@ class World:
         pos0, rot0 = evaluate_poses(self.graph, a0, b0, t0, root0)
         prev = forward_kinematics(self.graph.skeleton, pos0, rot0)[1]
         return prev + (cur - prev) * alpha
+
+    # ------------------------------------------------------------------ viewer scene protocol
+    @property
+    def environment(self):
+        if self.env is None:
+            from .crowd.environment import Environment
+            self.env = Environment.open_ground()
+        return self.env
+
+    @property
+    def skeleton(self):
+        return self.graph.skeleton
+
+    def joint_positions(self):
+        return self.poses()
+
+    def hud_stats(self) -> dict:
+        return {"tick ms": round(self.stats["tick_ms"], 2), "synthesis ms": round(self.stats["plan_ms"], 2),
+                "characters": self.stats["characters"], "queue": self.stats["queue"],
+                "time s": round(self.time, 1)}
+
+    def select(self, i) -> None:
+        self.selected = i
+
+    def command_go_to(self, i: int, xz) -> None:
+        names = self.names
+        if i is not None and 0 <= i < len(names):
+            self.go_to(names[i], np.asarray(xz, float))
+
+    def box_positions(self):
+        """Bottom-centre (x, y, z) and heading of every box marker, carried ones in the hands."""
+        if self.env is None:
+            return np.zeros((0, 4))
+        boxes = self.env.markers_with_role("box")
+        carried = {c.carrying: c for c in self._chars.values() if c.carrying}
+        out = []
+        for m in boxes:
+            c = carried.get(m.path)
+            if c is None:
+                p = self._box_place.get(m.path, (m.position[0], m.position[1], m.heading))
+                out.append((p[0], 0.0, p[1], p[2]))
+            else:
+                r = self.buf_root[c.slot, self.head[c.slot] % MAX_BUFFER]
+                fwd = np.array([math.sin(r[2]), math.cos(r[2])])
+                out.append((r[0] + 0.35 * fwd[0], 0.85, r[1] + 0.35 * fwd[1], r[2]))
+        return np.array(out, dtype=np.float64).reshape(-1, 4)
+
+    # ------------------------------------------------------------------ scenarios
+    def apply_scenario(self, sc) -> None:
+        """Spawn a scenario's characters and queue their goals as run-time commands (staged:
+        each goal is planned while the previous one plays). Seats and boxes become sit and
+        pick_up; a "stand" goal while carrying becomes put_down; relative timing (``after``)
+        is not used online."""
+        for c in sc.characters:
+            self.spawn(c.name, c.position, c.heading, c.pose)
+        for c in sc.characters:
+            carrying = False
+            for g in c.goals:
+                if g.kind == "seat":
+                    self.sit(c.name, g.marker)
+                elif g.kind == "box":
+                    self.pick_up(c.name, g.marker)
+                    carrying = True
+                elif carrying and g.pose in ("stand", None):
+                    self.put_down(c.name, g.position, g.heading)
+                    carrying = False
+                else:
+                    self.go_to(c.name, g.position, g.heading, g.time, queue=True)
