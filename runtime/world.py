@@ -126,6 +126,7 @@ class World:
         self.index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 0.1))
         self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "characters": 0, "queue": 0, "ticks": 0}
         self.selected = None
+        self._step_ema = 0.0005         # running average of a planner step's duration (s)
         self._box_place: dict = {}     # boxes put down somewhere else: path -> (x, z, heading)
         self._static = None
         if self.env is not None and (len(self.env.polygons) or len(self.env.circles)):
@@ -410,12 +411,14 @@ class World:
             self._plan_queue.append(c)
 
     def _plan(self):
-        """Planner steps until the budget is spent (at least one step per tick, so planning
-        always progresses)."""
+        """Planner steps while the next one is expected to fit in what is left of the budget
+        (a running average of step durations), and at least one step per tick, so planning
+        always progresses and rarely overruns."""
         t_end = time.perf_counter() + self.budget
         first = True
-        while first or time.perf_counter() < t_end:
+        while first or time.perf_counter() + self._step_ema < t_end:
             first = False
+            t_step = time.perf_counter()
             if self._active is None:
                 while self._plan_queue and self._active is None:
                     c = self._plan_queue.popleft()
@@ -432,6 +435,7 @@ class World:
             c = self._active
             try:
                 next(c.job)
+                self._step_ema = 0.9 * self._step_ema + 0.1 * (time.perf_counter() - t_step)
             except StopIteration as stop:
                 self._active = None
                 try:
