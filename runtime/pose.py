@@ -138,7 +138,8 @@ class PoseTable:
             return hit[1]
         table = cls(graph)
         key = id(graph)
-        _TABLES[key] = (weakref.ref(graph, lambda _r, k=key: _TABLES.pop(k, None)), table)
+        _TABLES[key] = (weakref.ref(graph, lambda _r, k=key, t=_TABLES: t.pop(k, None) if t is not None else None),
+                        table)
         return table
 
     def blend(self, frames_a, frames_b, frames_t, out=None, scratch=None) -> np.ndarray:
