@@ -156,8 +156,16 @@ def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=
             score = d.copy()
             if g.heading is not None:
                 score = score + 0.01 * np.degrees(np.abs((tr.root[prev:, 2] - g.heading + np.pi) % (2 * np.pi) - np.pi))
-            # the first frame within 0.1 mm of the best (idling later can come back as close)
-            k = prev + int(np.flatnonzero(score <= score.min() + 1e-4)[0])
+            # the first frame within 0.1 mm of the best (idling later can come back as close);
+            # with a pose constraint, the first such frame that shows the pose (a seated pelvis
+            # can pass the seat point a frame before the sit pose is reached)
+            close = prev + np.flatnonzero(score <= score.min() + 1e-4)
+            k = int(close[0])
+            if g.pose is not None:
+                for kk in close[:90]:
+                    if _pose_is_node(graph, tr.frames_a[kk], tr.frames_b[kk], tr.frames_t[kk], g.pose):
+                        k = int(kk)
+                        break
             found[(c.name, gi)] = k
             prev = k
     for c in scenario.characters:
