@@ -115,6 +115,7 @@ class World:
         self.rng = np.random.default_rng(seed)
         self.frame = 0
         self.accumulator = 0.0
+        self.flocks: list = []            # FlockSystems (one per DDG), stepped every tick
         self.systems: list = []           # extra per-tick systems: callables (world) -> None
         self._listeners: dict = {}
         self.events: list[Event] = []
@@ -459,6 +460,7 @@ class World:
         tp = time.perf_counter()
         self._plan()
         plan_ms = (time.perf_counter() - tp) * 1000
+        self._step_flocks()               # flocks, then tiling and user systems, in that order
         for system in self.systems:
             system(self)
         # clocks: all read heads advance together
@@ -626,3 +628,32 @@ class World:
                     carrying = False
                 else:
                     self.go_to(c.name, g.position, g.heading, g.time, queue=True)
+
+    # ------------------------------------------------------------------ flocks (paper 004)
+    def add_flocks(self, ddg, positions, headings=None, regions=None, seed: int | None = None):
+        """Start flocks walking ``ddg`` (a :class:`runtime.flock.DDG` or a pack path): their
+        centroids at ``positions`` (k, 3), optionally each constrained to a region. All flocks
+        of one DDG advance together in one vectorized system of the tick. Returns
+        (system index, flock rows)."""
+        from .flock import FlockSystem, load_ddg
+        if not hasattr(ddg, "n_agents"):
+            ddg = load_ddg(ddg)
+        sys_i = next((i for i, f in enumerate(self.flocks) if f.ddg is ddg), None)
+        if sys_i is None:
+            fs = FlockSystem(ddg, seed=self.rng.integers(1 << 31) if seed is None else seed)
+            self.flocks.append(fs)
+            sys_i = len(self.flocks) - 1
+        rows = self.flocks[sys_i].add_flocks(positions, headings, regions)
+        return sys_i, rows
+
+    def _step_flocks(self):
+        for fs in self.flocks:
+            fs.step(self.dt)
+
+    def flock_positions(self):
+        """All flock agents: positions (M, 3) and headings (M,) (viewer protocol)."""
+        if not self.flocks:
+            return np.zeros((0, 3)), np.zeros(0)
+        pos = np.concatenate([f.positions().reshape(-1, 3) for f in self.flocks])
+        hd = np.concatenate([f.headings().reshape(-1) for f in self.flocks])
+        return pos, hd
