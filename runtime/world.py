@@ -615,6 +615,7 @@ class World:
         is not used online."""
         for c in sc.characters:
             self.spawn(c.name, c.position, c.heading, c.pose)
+        # (flocks: add_scenario_flocks, once their graphs are loaded)
         for c in sc.characters:
             carrying = False
             for g in c.goals:
@@ -657,3 +658,52 @@ class World:
         pos = np.concatenate([f.positions().reshape(-1, 3) for f in self.flocks])
         hd = np.concatenate([f.headings().reshape(-1) for f in self.flocks])
         return pos, hd
+
+    def _flock_region(self, spec):
+        from .flock import Box, Polygon
+        if spec.region is None:
+            return None
+        poly = self.env.markers[spec.region].polygon
+        if spec.altitude is not None:
+            lo, hi = poly.min(axis=0), poly.max(axis=0)
+            return Box([lo[0], spec.altitude[0], lo[1]], [hi[0], spec.altitude[1], hi[1]])
+        return Polygon(poly)
+
+    def add_scenario_flocks(self, sc) -> None:
+        """Start the ``[[flock]]`` entries of a scenario (their DDGs resolved into
+        ``spec.loaded`` by the caller, see ``authoring.commands.bake.load_sample``)."""
+        for spec in sc.flocks:
+            ddg = spec.loaded
+            region = self._flock_region(spec)
+            if spec.positions is not None:
+                pos = np.asarray(spec.positions, dtype=np.float64).reshape(-1, 3)
+            else:
+                pos = spread_in_region(region, spec.count, 25.0 if ddg.dim == 3 else 0.0, seed=spec.seed)
+            headings = np.linspace(0.0, 2 * math.pi, len(pos), endpoint=False)
+            self.add_flocks(ddg, pos, headings, [region] * len(pos), seed=spec.seed)
+
+
+def spread_in_region(region, k: int, height: float = 0.0, seed: int = 0) -> np.ndarray:
+    """``k`` start points well inside a region, far apart (deepest grid points, then farthest
+    point sampling); deterministic."""
+    if region is None:
+        a = np.linspace(0, 2 * math.pi, k, endpoint=False)
+        return np.stack([15 * np.sin(a), np.full(k, height), 15 * np.cos(a)], axis=1)
+    if hasattr(region, "vertices"):          # polygon (2D flocks walk at ``height``)
+        lo, hi = region.vertices.min(axis=0), region.vertices.max(axis=0)
+        y = height
+    else:                                    # box (3D flocks start at mid altitude)
+        lo, hi = region.lo[[0, 2]], region.hi[[0, 2]]
+        y = 0.5 * (region.lo[1] + region.hi[1])
+    X, Z = np.meshgrid(np.linspace(lo[0], hi[0], 40), np.linspace(lo[1], hi[1], 40))
+    pts = np.stack([X.ravel(), np.full(X.size, y), Z.ravel()], axis=1)
+    depth = region.depth(pts)
+    ok = depth > np.percentile(depth[depth > 0], 60) if np.any(depth > 0) else depth > -np.inf
+    cand = pts[ok]
+    chosen = [int(np.argmax(region.depth(cand)))]
+    d = np.hypot(cand[:, 0] - cand[chosen[0], 0], cand[:, 2] - cand[chosen[0], 2])
+    while len(chosen) < k:
+        i = int(np.argmax(d))
+        chosen.append(i)
+        d = np.minimum(d, np.hypot(cand[:, 0] - cand[i, 0], cand[:, 2] - cand[i, 2]))
+    return cand[chosen]

@@ -29,9 +29,10 @@ __all__ = ["build_crowd_stage", "write_crowd_stage", "read_tracks", "CHARACTERS"
 CHARACTERS = "/World/Characters"
 
 
-def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None):
+def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
+                      num_frames: int | None = None):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage."""
-    n = max(len(t) for t in tracks.values())
+    n = max([len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
     if stage is None:
         stage = new_stage(fps, 0, n - 1)
     world = UsdGeom.Xform.Define(stage, "/World")

@@ -43,7 +43,53 @@ def load_sample(sample, log=print, progress=True):
     ensure_library(lib_name, base, log=log, progress=progress)
     graph = load_library(lib_name, base)
     sc = load_scenario(toml, env=env, node_labels=set(graph.node_labels_all()))
+    if sc.flocks:
+        from authoring.flock_cache import resolve_scenario_flocks
+        resolve_scenario_flocks(sc, base, log=log, progress=progress)
     return sc, graph, env, roadmap
+
+
+def bake_flocks(sc, env, fps, num_frames):
+    """Walk the scenario's flocks for the whole duration and check them independently
+    (positions only: centroids inside the region, no step above the recording's + 10%)."""
+    import numpy as np
+
+    from runtime.flock import WalkChecker
+    from runtime.world import World
+    w = World.__new__(World)            # only the flock part of a world: no library needed
+    w.env, w.flocks, w.dt = env, [], 1.0 / fps
+    w.rng = np.random.default_rng(sc.seed)
+    World.add_scenario_flocks(w, sc)
+    arrays, checks = {}, []
+    for spec in sc.flocks:
+        fs = next(f for f in w.flocks if f.ddg is spec.loaded)
+        checks.append((spec, fs))
+    recs = {id(fs): ([fs.positions().copy()], [fs.orientations().copy()]) for _, fs in checks}
+    chk = {}
+    for spec, fs in checks:
+        region = World._flock_region(w, spec)
+        chk[id(fs)] = WalkChecker(spec.loaded.max_step, spec.loaded.fps, [region] * fs.n_flocks, tolerance=0.1)
+        chk[id(fs)].update(fs.positions(), w.dt)
+    for _ in range(num_frames - 1):
+        for _, fs in checks:
+            fs.step(w.dt)
+            recs[id(fs)][0].append(fs.positions().copy())
+            recs[id(fs)][1].append(fs.orientations().copy())
+            chk[id(fs)].update(fs.positions(), w.dt)
+    outside = worst = 0
+    n_fl = agents = 0
+    for spec, fs in checks:
+        pos = np.stack(recs[id(fs)][0])
+        ori = np.stack(recs[id(fs)][1])
+        for f in range(fs.n_flocks):
+            arrays[f"{spec.name}_{f:02d}"] = (pos[:, f], ori[:, f])
+        r = chk[id(fs)].summary()
+        outside += r["frames_outside"]
+        worst = max(worst, r["worst_step_ratio"])
+        n_fl += fs.n_flocks
+        agents = fs.n_agents
+    return {"flocks": n_fl, "agents": agents, "frames_outside": int(outside), "worst_step_ratio": float(worst),
+            "passed": bool(outside == 0 and worst <= 1.1), "_arrays": arrays}
 
 
 def run(args) -> int:
@@ -75,15 +121,32 @@ def run(args) -> int:
             raise CLIError(str(e)) from None
     t_plan = time.perf_counter() - t0
     tracks = {c.name: c.track for c in result.characters}
-    write_crowd_stage(out, tracks, graph, result.fps,
-                      metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
+    flock_report = bake_flocks(sc, env, result.fps, result.num_frames) if sc.flocks else None
+    from usd_io.crowd import build_crowd_stage
+    from usd_io.stage import save_stage
+    stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames,
+                              metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
+    if flock_report:
+        from usd_io.flock import write_flock_instancer
+        for name, (pos, ori) in flock_report.pop("_arrays").items():
+            write_flock_instancer(stage, name, pos, ori)
+    save_stage(stage, out)
     t_write = time.perf_counter() - t0 - t_plan
     # the checker reads the baked stage back, not the planner's objects
-    report = check_crowd(sc, read_tracks(out), graph, env, result.fps)
+    report = check_crowd(sc, read_tracks(out), graph, env, result.fps) if sc.characters else \
+        {"summary": {"passed": True, "characters": 0, "goals": 0, "max_position_error_mm": 0.0,
+                     "max_heading_error_deg": 0.0, "goals_in_window": 0, "poses_ok": 0, "characters_within_eps": 0,
+                     "character_overlap_pairs": 0, "obstacle_overlap_characters": 0, "max_adjust_m_s": 0.0,
+                     "max_adjust_deg_s": 0.0, "max_adjust_s_s": 0.0}}
+    if flock_report:
+        report["flocks"] = flock_report
+        report["summary"]["passed"] = report["summary"]["passed"] and flock_report["passed"]
+        print(f"flocks: {flock_report['flocks']} flocks of {flock_report['agents']}, frames outside their region "
+              f"{flock_report['frames_outside']}, worst step / recorded max {flock_report['worst_step_ratio']:.3f}")
     s = report["summary"]
     n = len(sc.characters)
-    print(f"{sc.name}: {n} characters planned in {t_plan:.2f} s ({t_plan / max(n, 1) * 1000:.0f} ms each), "
-          f"wrote {out} in {t_write:.1f} s")
+    print(f"{sc.name}: {n} characters planned in {t_plan:.2f} s"
+          + (f" ({t_plan / n * 1000:.0f} ms each)" if n else "") + f", wrote {out} in {t_write:.1f} s")
     print(f"checker: position error <= {s['max_position_error_mm']:.3g} mm, heading error <= "
           f"{s['max_heading_error_deg']:.3g} deg, {s['goals_in_window']}/{s['goals']} arrivals in window, "
           f"{s['poses_ok']}/{s['goals']} poses right")

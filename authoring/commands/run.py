@@ -38,6 +38,8 @@ def run(args) -> int:
         raise CLIError(str(e)) from None
     world = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=args.budget_ms)
     world.apply_scenario(sc)
+    if sc.flocks:
+        world.add_scenario_flocks(sc)
     world.on("warning", lambda e: print(f"[{e.time:6.1f}s] warning {e.character}: {e.data.get('message', '')}",
                                          file=sys.stderr))
     info = run_viewer(world, headless=args.headless, seconds=args.seconds, screenshot=args.screenshot,

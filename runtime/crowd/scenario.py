@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "load_scenario", "parse_scenario",
+__all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "FlockSpec", "load_scenario", "parse_scenario",
            "planning_order", "BOX_REACH"]
 
 # Distance from a box marker to the root of a character standing at it, facing it (m).
@@ -69,6 +69,24 @@ class CharacterSpec:
 
 
 @dataclass
+class FlockSpec:
+    """``[[flock]]``: ``count`` flocks walking one flock motion graph (paper 004).
+
+    ``ddg`` is a pack path (relative to the scenario) or a recording recipe
+    ``{dim, agents, seconds, seed}`` that the authoring tools record and build once (cached);
+    ``region`` a ``crowdweave:role = "region"`` prim whose outline the flocks' centroids never
+    leave (with ``altitude = [y0, y1]`` for 3D flocks: a box); ``positions`` optional centroid
+    starts (default: spread over the region)."""
+    name: str
+    ddg: object
+    count: int = 1
+    region: str | None = None
+    altitude: tuple | None = None
+    positions: list | None = None
+    seed: int = 0
+
+
+@dataclass
 class Scenario:
     name: str
     path: str
@@ -79,6 +97,7 @@ class Scenario:
     epsilon: tuple
     characters: list[CharacterSpec]
     synthesis: dict = field(default_factory=dict)
+    flocks: list = field(default_factory=list)
 
     def character(self, name: str) -> CharacterSpec:
         for c in self.characters:
@@ -87,7 +106,8 @@ class Scenario:
         raise KeyError(name)
 
 
-_TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description"}
+_TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description", "flock"}
+_FLOCK = {"name", "ddg", "count", "region", "altitude", "positions", "seed"}
 _CHAR = {"name", "start", "goal"}
 _START = {"position", "heading", "pose", "seat"}
 _GOAL = {"position", "heading", "pose", "time", "seat", "box", "after"}
@@ -132,8 +152,25 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
     chars = []
     names = set()
     raw_chars = data.get("character", [])
-    if not isinstance(raw_chars, list) or not raw_chars:
-        raise ScenarioError(f"{path}: no [[character]] entries")
+    raw_flocks = data.get("flock", [])
+    if not isinstance(raw_chars, list) or not isinstance(raw_flocks, list) or not (raw_chars or raw_flocks):
+        raise ScenarioError(f"{path}: no [[character]] or [[flock]] entries")
+    flocks = []
+    for fi, rf in enumerate(raw_flocks):
+        fname = str(rf.get("name", f"flock{fi}"))
+        bad = set(rf) - _FLOCK
+        if bad:
+            raise ScenarioError(f"{path}: flock {fname!r}: unknown keys {sorted(bad)}")
+        if "ddg" not in rf:
+            raise ScenarioError(f"{path}: flock {fname!r}: needs ddg (a pack path or {{dim, agents, seconds, seed}})")
+        region = rf.get("region")
+        if region is not None:
+            m = markers.get(region)
+            if m is None or m.role != "region" or m.polygon is None:
+                raise ScenarioError(f"{path}: flock {fname!r}: no region marker {region!r} with an outline in the world")
+        alt = tuple(float(a) for a in rf["altitude"]) if "altitude" in rf else None
+        flocks.append(FlockSpec(fname, rf["ddg"], int(rf.get("count", 1)), region, alt, rf.get("positions"),
+                                int(rf.get("seed", fi))))
     for ci, rc in enumerate(raw_chars):
         name = str(rc.get("name", f"c{ci:02d}"))
         where = f"{path}: character {name!r}"
@@ -217,7 +254,7 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
             spec.goals.append(GoalSpec(gpos, gh, gpose, tw, after, marker, kind))
         chars.append(spec)
     sc = Scenario(str(data.get("name", Path(path).parent.name)), path, data.get("world"),
-                  str(data.get("library", "default")), duration, int(data.get("seed", 0)), eps, chars, syn)
+                  str(data.get("library", "default")), duration, int(data.get("seed", 0)), eps, chars, syn, flocks)
     validate(sc, env, node_labels)
     return sc
 
