@@ -1,7 +1,9 @@
 """``crowdweave demo``: the main job.
 
 Generates the default procedural capture (seed 0) if it is not cached yet, builds the
-default motion library from it, and prints both summaries.
+default motion library from it, prints both summaries, and then, when a display is available,
+opens the plaza sample in the viewer (``crowdweave run``); ``--no-window`` stops after the
+summaries.
 """
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ import sys
 
 def configure(p):
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--no-window", action="store_true", help="only build and summarise, do not open the viewer")
 
 
 def run(args) -> int:
@@ -27,4 +30,16 @@ def run(args) -> int:
     print(f"  node labels: {s['node_labels']}")
     print(f"  states: " + ", ".join(f"{k} {v.get('edges', 0)} edges" for k, v in s["states"].items()))
     sys.stdout.flush()
-    return 0
+    import os
+    if args.no_window:
+        return 0
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        print("\nno display: to see the crowd, run `crowdweave run` on a desktop, or "
+              "`crowdweave run --headless --seconds 20 --screenshot plaza.png`")
+        return 0
+    from authoring.commands import run as run_cmd
+    import argparse
+    ns = argparse.Namespace(sample=None, headless=False, seconds=None, screenshot=None, width=1280, height=720,
+                            budget_ms=4.0)
+    print("\nopening the plaza sample (close the window to quit)")
+    return run_cmd.run(ns)
