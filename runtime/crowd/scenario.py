@@ -264,6 +264,7 @@ def planning_order(sc: Scenario) -> list[int]:
     A cycle is a ScenarioError naming the characters in it."""
     idx = {c.name: i for i, c in enumerate(sc.characters)}
     deps = [set() for _ in sc.characters]
+    why = {}    # (i, d) -> "goal gi after <d> goal gd"
     for i, c in enumerate(sc.characters):
         for gi, g in enumerate(c.goals):
             if g.after:
@@ -278,6 +279,7 @@ def planning_order(sc: Scenario) -> list[int]:
                         raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: after refers to its own later goal")
                     continue
                 deps[i].add(idx[other])
+                why.setdefault((i, idx[other]), f"goal {gi} after {other!r} goal {g.after['goal']}")
     order, state = [], [0] * len(deps)   # 0 new, 1 on stack, 2 done
 
     def visit(i, stack):
@@ -285,8 +287,9 @@ def planning_order(sc: Scenario) -> list[int]:
             return
         if state[i] == 1:
             cyc = stack[stack.index(i):] + [i]
+            steps = [f"{sc.characters[a].name!r} {why.get((a, b), '')}" for a, b in zip(cyc[:-1], cyc[1:])]
             raise ScenarioError(f"{sc.path}: timing dependency cycle: " +
-                                " -> ".join(sc.characters[k].name for k in cyc))
+                                " -> ".join(sc.characters[k].name for k in cyc) + " (" + "; ".join(steps) + ")")
         state[i] = 1
         for d in sorted(deps[i]):
             visit(d, stack + [i])

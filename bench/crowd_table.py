@@ -1,0 +1,219 @@
+"""Benchmark: paper 000's Table 1 and its Figures 11 and 12 on the sample scenarios.
+
+* **Table 1** -- for every sample (``samples/<name>``, loaded with
+  ``authoring.commands.bake.load_sample``, planned with ``runtime.crowd.scheduler.plan_scenario``):
+  the number of characters, the mean duration of a character's motion (time of its last
+  goal's arrival), the mean synthesis time per character, the total synthesis time, the
+  planner's warnings and the independent checker's verdict (``runtime.crowd.checker``, run on
+  the planned tracks). The paper's figures (3.0 GHz PC, 2005) are printed beside ours, with the
+  ratio of our total to theirs.
+* **Figure 11** -- mean synthesis time per character for a 300-character grid (20 x 15,
+  ``samples/make_samples.grid_scenario``) at grid spacings 1.6, 1.8, 2.0, 2.5 and 3.0 m, with the
+  ratio to the widest spacing measured in the same run.
+* **Figure 12** -- total (and per-character) synthesis time for spell70 with the adjustment
+  tolerance eps scaled by 0.5, 1, 2, 4 and 8, the ratio to eps x 1 measured in the same run; the
+  checker uses the scaled eps of each row.
+
+Figures only, no asserts. Timings are wall-clock on this machine; planning is single-threaded.
+
+    CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_table.py [--quick] [--only NAME] [--quiet]
+
+``--quick`` plans at most 10 characters of each sample (a prefix of the planning order, which
+keeps every timing dependency), a 10 x 6 grid instead of the 300/500 ones, three spacings and
+three eps scales. ``--only NAME`` runs one sample's Table 1 row, or ``fig11`` / ``fig12``.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+SAMPLES_DIR = ROOT / "samples"
+if str(SAMPLES_DIR) not in sys.path:
+    sys.path.insert(0, str(SAMPLES_DIR))
+
+# (example, sample, paper: characters, mean duration s, mean synthesis s per character, total s)
+TABLE1 = [
+    ("1", "meet20", (20, 14.8, 0.21, 4.2)),
+    ("2", "spell70", (70, 21.3, 0.18, 12.6)),
+    ("3", "rooms_box", (1, 83.3, 0.01, 0.01)),
+    ("4", "theater40", (40, 30.2, 0.35, 14.0)),
+    ("5", "fetch_boxes20", (20, 23.6, 0.15, 3.0)),
+    ("6a", "grid300", (300, 25.3, 0.034, 0.86)),
+    ("6b", "grid500", (500, 25.6, 0.035, 0.90)),
+]
+FIG11_SPACINGS = (1.6, 1.8, 2.0, 2.5, 3.0)
+FIG12_SCALES = (0.5, 1.0, 2.0, 4.0, 8.0)
+QUICK_CHARACTERS = 10
+
+
+def prefix(sc, n: int):
+    """The scenario restricted to the first ``n`` characters of its planning order (a prefix
+    of a topological order keeps every 'after' target)."""
+    from runtime.crowd.scenario import planning_order
+    if len(sc.characters) <= n:
+        return sc
+    keep = sorted(planning_order(sc)[:n])
+    out = copy.copy(sc)
+    out.characters = [sc.characters[i] for i in keep]
+    return out
+
+
+def default_graph():
+    from runtime.library import load_library
+    return load_library("default", None)
+
+
+def run(sc, graph, env, roadmap, eps=None, quiet=True):
+    """Plan and check one scenario; returns a dict of the figures."""
+    from tqdm import tqdm
+
+    from runtime.crowd.checker import check_crowd
+    from runtime.crowd.scheduler import plan_scenario
+    from runtime.crowd.synthesis import SynthesisParams
+    eps = tuple(eps or sc.epsilon)
+    params = SynthesisParams(eps=eps)
+    with tqdm(total=len(sc.characters), desc=sc.name, unit="char", leave=False, disable=quiet) as bar:
+        res = plan_scenario(sc, graph, env, roadmap, params=params, progress=bar.update)
+    tracks = {c.name: c.track for c in res.characters}
+    rep = check_crowd(sc, tracks, graph, env, res.fps, eps=eps)
+    s = rep["summary"]
+    n = len(res.characters)
+    return {"n": n,
+            "duration": sum(c.motion_seconds for c in res.characters) / max(n, 1),
+            "per_char": sum(c.seconds for c in res.characters) / max(n, 1),
+            "total": res.total_seconds,
+            "max_char": max((c.seconds for c in res.characters), default=0.0),
+            "warnings": sum(len(c.warnings) for c in res.characters),
+            "passed": s["passed"], "summary": s,
+            "by_name": {c.name: (c.motion_seconds, c.seconds, len(c.warnings)) for c in res.characters}}
+
+
+def verdict(r) -> str:
+    s = r["summary"]
+    if r["passed"]:
+        return "PASS"
+    why = []
+    if s["max_position_error_mm"] > 1.0 or s["max_heading_error_deg"] > 0.1:
+        why.append("goal error")
+    if s["goals_in_window"] < s["goals"]:
+        why.append(f"{s['goals'] - s['goals_in_window']} late/early")
+    if s["poses_ok"] < s["goals"]:
+        why.append(f"{s['goals'] - s['poses_ok']} poses")
+    if s["fraction_within_eps"] < 0.99:
+        why.append(f"eps {s['characters_within_eps']}/{s['characters']}")
+    if s["character_overlap_pairs"]:
+        why.append(f"{s['character_overlap_pairs']} overlapping pairs")
+    if s["obstacle_overlap_characters"]:
+        why.append(f"{s['obstacle_overlap_characters']} in obstacles")
+    return "FAIL (" + ", ".join(why) + ")"
+
+
+def table1(names, quick, quiet):
+    from authoring.commands.bake import load_sample
+    from runtime.crowd.scenario import parse_scenario
+    print("Table 1 (paper 000): goal-directed synthesis of the sample scenarios"
+          + (f"  [--quick: at most {QUICK_CHARACTERS} characters each; grids 10 x 6]" if quick else ""))
+    head = (f"{'ex':<3} {'sample':<14} {'chars':>5} {'duration':>9} {'synth/char':>11} {'total':>9} "
+            f"{'max char':>9} {'warn':>5}  {'paper: chars dur synth/char total':<34} {'total/paper':>11}  checker")
+    print(head)
+    print("-" * len(head))
+    for ex, name, paper in TABLE1:
+        if name not in names:
+            continue
+        t0 = time.perf_counter()
+        if quick and name.startswith("grid"):
+            import make_samples
+            graph = default_graph()
+            data = make_samples.grid_scenario(10, 6, spacing=2.2, seed=0, name=f"{name}-quick")
+            sc = parse_scenario(data, f"<{name} quick>", node_labels=set(graph.node_labels_all()))
+            env = roadmap = None
+        else:
+            sc, graph, env, roadmap = load_sample(SAMPLES_DIR / name, log=lambda m: None, progress=False)
+            if quick:
+                sc = prefix(sc, QUICK_CHARACTERS)
+        load_s = time.perf_counter() - t0
+        r = run(sc, graph, env, roadmap, quiet=quiet)
+        pc, pd, ps, pt = paper
+        print(f"{ex:<3} {name:<14} {r['n']:>5} {r['duration']:>8.1f}s {r['per_char']:>10.3f}s {r['total']:>8.2f}s "
+              f"{r['max_char']:>8.2f}s {r['warnings']:>5}  {pc:>5} {pd:>5.1f}s {ps:>8.3f}s {pt:>6.2f}s    "
+              f"{r['total'] / pt:>10.1f}x  {verdict(r)}", flush=True)
+        if "main" in r["by_name"]:
+            d, t, w = r["by_name"]["main"]
+            print(f"    (the crossing character 'main' alone: duration {d:.1f} s, synthesis {t:.3f} s, {w} warnings; "
+                  f"the others are its moving obstacles)")
+        if load_s > 5:
+            print(f"    (loading the sample, library and roadmap took {load_s:.1f} s, not counted)")
+
+
+def fig11(quick, quiet):
+    import make_samples
+    from runtime.crowd.scenario import parse_scenario
+    cols, rows = (10, 6) if quick else (20, 15)
+    spacings = (1.6, 2.0, 3.0) if quick else FIG11_SPACINGS
+    graph = default_graph()
+    labels = set(graph.node_labels_all())
+    print(f"\nFigure 11 (paper 000): mean synthesis time per character vs grid spacing, {cols * rows} characters "
+          f"({cols} x {rows} grid to a translated grid, perturbed targets)")
+    head = f"{'spacing':>8} {'synth/char':>11} {'total':>9} {'duration':>9} {'warn':>5} {'vs widest':>10}  checker"
+    print(head)
+    print("-" * len(head))
+    rows_out = []
+    for sp in spacings:
+        data = make_samples.grid_scenario(cols, rows, spacing=sp, seed=0, name=f"grid{cols * rows}-{sp:g}m")
+        sc = parse_scenario(data, f"<grid spacing {sp:g}>", node_labels=labels)
+        rows_out.append((sp, run(sc, graph, None, None, quiet=quiet)))
+    ref = rows_out[-1][1]["per_char"]
+    for sp, r in rows_out:
+        print(f"{sp:>7.1f}m {r['per_char']:>10.3f}s {r['total']:>8.2f}s {r['duration']:>8.1f}s {r['warnings']:>5} "
+              f"{r['per_char'] / ref:>9.2f}x  {verdict(r)}")
+
+
+def fig12(quick, quiet):
+    from authoring.commands.bake import load_sample
+    sc, graph, env, roadmap = load_sample(SAMPLES_DIR / "spell70", log=lambda m: None, progress=False)
+    if quick:
+        sc = prefix(sc, 2 * QUICK_CHARACTERS)
+    scales = (0.5, 1.0, 4.0) if quick else FIG12_SCALES
+    print(f"\nFigure 12 (paper 000): synthesis time vs adjustment tolerance eps, spell70 ({len(sc.characters)} characters); "
+          f"eps x 1 = ({sc.epsilon[0] * 100:g} cm/s, {sc.epsilon[1]:g} deg/s, {sc.epsilon[2]:.4g} s/s)")
+    head = f"{'eps x':>6} {'total':>9} {'synth/char':>11} {'warn':>5} {'vs eps x1':>10}  checker (at the scaled eps)"
+    print(head)
+    print("-" * len(head))
+    out = []
+    for k in scales:
+        eps = tuple(e * k for e in sc.epsilon)
+        out.append((k, run(sc, graph, env, roadmap, eps=eps, quiet=quiet)))
+    ref = next(r["total"] for k, r in out if k == 1.0)
+    for k, r in out:
+        print(f"{k:>6g} {r['total']:>8.2f}s {r['per_char']:>10.3f}s {r['warnings']:>5} {r['total'] / ref:>9.2f}x  {verdict(r)}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description="Paper 000 Table 1 and Figures 11-12 on the sample scenarios.")
+    ap.add_argument("--quick", action="store_true", help="fewer characters, smaller grids, fewer sweep points")
+    ap.add_argument("--only", default=None, help="one sample name, or fig11 / fig12")
+    ap.add_argument("--quiet", action="store_true", help="no progress bars")
+    args = ap.parse_args(argv)
+    quiet = args.quiet or not sys.stderr.isatty()
+    names = [n for _, n, _ in TABLE1]
+    if args.only and args.only not in names + ["fig11", "fig12"]:
+        ap.error(f"--only: unknown {args.only!r} (samples: {', '.join(names)}; or fig11, fig12)")
+    from authoring.default_library import ensure_library
+    ensure_library("default", log=lambda m: print(m, file=sys.stderr), progress=not quiet)
+    if args.only in (None, *names):
+        table1([args.only] if args.only else names, args.quick, quiet)
+    if args.only in (None, "fig11"):
+        fig11(args.quick, quiet)
+    if args.only in (None, "fig12"):
+        fig12(args.quick, quiet)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
