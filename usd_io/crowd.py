@@ -5,8 +5,8 @@ Layout::
     /World                          Xform (defaultPrim)
     /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
-        crowdweave:frameA/B         int[t]     library frames shown (pose = slerp(A, B, T))
-        crowdweave:frameT           float[t]
+        crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
+        crowdweave:frameT           float[]    crowdweave:startFrame (pose = slerp(A, B, T))
     /World/Characters/<name>/Skel       Skeleton (SkelBindingAPI, skel:animationSource -> Anim)
     /World/Characters/<name>/Skel/Anim  SkelAnimation (root joint translation = world position)
 
@@ -17,7 +17,7 @@ a bake back (:func:`read_tracks`) without the planner. Poses come from the runti
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdf, UsdGeom
+from pxr import Sdf, UsdGeom, Vt
 
 from runtime.crowd.tracks import Track, evaluate_poses
 
@@ -56,19 +56,18 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
         bind_animation(skel, anim)
         prim = root.GetPrim()
         a_root = prim.CreateAttribute("crowdweave:root", Sdf.ValueTypeNames.Double3)
-        a_fa = prim.CreateAttribute("crowdweave:frameA", Sdf.ValueTypeNames.Int)
-        a_fb = prim.CreateAttribute("crowdweave:frameB", Sdf.ValueTypeNames.Int)
-        a_ft = prim.CreateAttribute("crowdweave:frameT", Sdf.ValueTypeNames.Float)
+        prim.CreateAttribute("crowdweave:startFrame", Sdf.ValueTypeNames.Int).Set(int(tr.start_frame))
+        prim.CreateAttribute("crowdweave:frameA", Sdf.ValueTypeNames.IntArray).Set(
+            Vt.IntArray.FromNumpy(np.asarray(tr.frames_a, dtype=np.int32)))
+        prim.CreateAttribute("crowdweave:frameB", Sdf.ValueTypeNames.IntArray).Set(
+            Vt.IntArray.FromNumpy(np.asarray(tr.frames_b, dtype=np.int32)))
+        prim.CreateAttribute("crowdweave:frameT", Sdf.ValueTypeNames.FloatArray).Set(
+            Vt.FloatArray.FromNumpy(np.asarray(tr.frames_t, dtype=np.float32)))
         rootv = np.column_stack([tr.root[:, 0], tr.root[:, 1], np.degrees(tr.root[:, 2])]).astype(np.float64)
+        sp = a_root.GetPath()
         with Sdf.ChangeBlock():
-            for attr, vals in ((a_root, None), (a_fa, tr.frames_a), (a_fb, tr.frames_b), (a_ft, tr.frames_t)):
-                sp = attr.GetPath()
-                if vals is None:
-                    for t, v in zip(times.tolist(), rootv.tolist()):
-                        layer.SetTimeSample(sp, t, tuple(v))
-                else:
-                    for t, v in zip(times.tolist(), np.asarray(vals).tolist()):
-                        layer.SetTimeSample(sp, t, v)
+            for t, v in zip(times.tolist(), rootv.tolist()):
+                layer.SetTimeSample(sp, t, tuple(v))
     if metadata:
         stage.GetRootLayer().customLayerData = {"crowdweave": dict(metadata)}
     return stage
@@ -94,9 +93,12 @@ def read_tracks(stage_or_path) -> dict:
             continue
         times = a.GetTimeSamples()
         root = np.array([a.Get(t) for t in times], dtype=np.float64)
-        fa = np.array([prim.GetAttribute("crowdweave:frameA").Get(t) for t in times], dtype=np.int64)
-        fb = np.array([prim.GetAttribute("crowdweave:frameB").Get(t) for t in times], dtype=np.int64)
-        ft = np.array([prim.GetAttribute("crowdweave:frameT").Get(t) for t in times], dtype=np.float32)
+        fa = np.array(prim.GetAttribute("crowdweave:frameA").Get(), dtype=np.int64)
+        fb = np.array(prim.GetAttribute("crowdweave:frameB").Get(), dtype=np.int64)
+        ft = np.array(prim.GetAttribute("crowdweave:frameT").Get(), dtype=np.float32)
         root[:, 2] = np.radians(root[:, 2])
-        out[prim.GetName()] = Track(fa, fb, ft, root, int(round(times[0])) if times else 0)
+        start = int(prim.GetAttribute("crowdweave:startFrame").Get() or 0)
+        if not (len(fa) == len(fb) == len(ft) == len(root)):
+            raise ValueError(f"{prim.GetPath()}: crowdweave frame arrays and crowdweave:root disagree in length")
+        out[prim.GetName()] = Track(fa, fb, ft, root, start)
     return out
