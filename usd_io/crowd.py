@@ -29,9 +29,35 @@ __all__ = ["build_crowd_stage", "write_crowd_stage", "read_tracks", "CHARACTERS"
 CHARACTERS = "/World/Characters"
 
 
+BODY_PROTOTYPE = "/Prototypes/Body"
+
+
+def _define_body_prototype(stage, skeleton, paths):
+    """The skinned capsule-limb body every character references (a class prim: not drawn)."""
+    from pxr import Gf, UsdSkel
+    from runtime.motion.body import body_mesh
+    pts, counts, idx, joints = body_mesh(skeleton)
+    stage.CreateClassPrim("/Prototypes")
+    mesh = UsdGeom.Mesh.Define(stage, BODY_PROTOTYPE)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(pts))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(counts))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(idx))
+    mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*pts.min(axis=0).tolist()), Gf.Vec3f(*pts.max(axis=0).tolist())]))
+    mesh.CreateSubdivisionSchemeAttr("none")
+    mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(0.75, 0.62, 0.5)]))
+    b = UsdSkel.BindingAPI.Apply(mesh.GetPrim())
+    b.CreateJointIndicesPrimvar(False, 1).Set(Vt.IntArray.FromNumpy(joints))
+    b.CreateJointWeightsPrimvar(False, 1).Set(Vt.FloatArray.FromNumpy(np.ones(len(joints), np.float32)))
+    b.CreateGeomBindTransformAttr(Gf.Matrix4d(1.0))
+    return mesh
+
+
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
-                      num_frames: int | None = None):
-    """Author every character of ``tracks`` (name -> Track) into a new (or given) stage."""
+                      num_frames: int | None = None, world_path=None, out_path=None, body: bool = True):
+    """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
+    SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
+    one prototype mesh). ``world_path`` (a Y-up, metre world stage) is referenced as
+    ``/World/Environment`` (by a path relative to ``out_path`` when given)."""
     n = max([len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
     if stage is None:
         stage = new_stage(fps, 0, n - 1)
@@ -41,6 +67,14 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     sk = graph.skeleton
     paths = joint_paths(sk)
     layer = stage.GetEditTarget().GetLayer()
+    if world_path is not None:
+        import os
+        ref = str(world_path)
+        if out_path is not None:
+            ref = os.path.relpath(os.path.abspath(world_path), os.path.dirname(os.path.abspath(out_path)))
+        stage.DefinePrim("/World/Environment").GetReferences().AddReference(ref.replace(os.sep, "/"))
+    if body and tracks:
+        _define_body_prototype(stage, sk, paths)
     for name, tr in tracks.items():
         root_path = Sdf.Path(CHARACTERS).AppendChild(valid_prim_name(name, "Character"))
         root = define_skel_root(stage, root_path)
@@ -54,6 +88,8 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
                                time_codes=times, paths=paths)
         bind_skeleton(root, skel)
         bind_animation(skel, anim)
+        if body:
+            stage.DefinePrim(root_path.AppendChild("Body")).GetReferences().AddInternalReference(BODY_PROTOTYPE)
         prim = root.GetPrim()
         a_root = prim.CreateAttribute("crowdweave:root", Sdf.ValueTypeNames.Double3)
         prim.CreateAttribute("crowdweave:startFrame", Sdf.ValueTypeNames.Int).Set(int(tr.start_frame))

@@ -356,3 +356,12 @@ def read_world(path) -> Environment:
         prim = first.path if first.path != str(path) else None
         raise WorldError(path, first.reason + more, prim=prim, issues=errors)
     return env
+
+
+def read_world_units(path):
+    """(metersPerUnit, upAxis) of a world stage, as authored (defaults 1.0 and "Y")."""
+    from pxr import Usd
+    st = Usd.Stage.Open(str(path))
+    mpu = UsdGeom.GetStageMetersPerUnit(st) if st.HasAuthoredMetadata("metersPerUnit") else 1.0
+    up = UsdGeom.GetStageUpAxis(st) if st.HasAuthoredMetadata("upAxis") else "Y"
+    return float(mpu), str(up)

@@ -124,7 +124,14 @@ def run(args) -> int:
     flock_report = bake_flocks(sc, env, result.fps, result.num_frames) if sc.flocks else None
     from usd_io.crowd import build_crowd_stage
     from usd_io.stage import save_stage
-    stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames,
+    world_path = None
+    if sc.world:
+        from usd_io.world import read_world_units
+        world_path = Path(sc.path).parent / sc.world
+        if read_world_units(world_path) != (1.0, "Y"):
+            world_path = None          # a referenced stage must share the bake's metres / Y up
+    stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
+                              out_path=out,
                               metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
     if flock_report:
         from usd_io.flock import write_flock_instancer
