@@ -40,3 +40,27 @@ def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path):
         d = np.linalg.norm(np.array(pts) - jw[ji], axis=1)
         np.testing.assert_allclose(d, reach, atol=1e-4)     # rigidly bound: the body moves with its bones
     assert np.linalg.norm(jw[0, [0, 2]] - jr[0, [0, 2]]) > 1.0   # and the character did move
+
+
+def test_carried_box_moves_with_the_hands(default_graph):
+    from pathlib import Path
+    from runtime.crowd.tracks import box_trajectories, joint_positions
+    from usd_io.world import read_world
+    env = read_world(Path(__file__).resolve().parents[1] / "samples" / "example_world" / "world.usda")
+    box = sorted(m.path for m in env.markers_with_role("box"))[0]
+    m = env.markers[box]
+    sc = parse_scenario({"name": "t", "duration": 20.0, "character": [
+        {"name": "a", "start": {"position": [float(m.position[0]) + 2.5, float(m.position[1]) + 2.5], "pose": "stand"},
+         "goal": [{"box": box}, {"position": [float(m.position[0]) + 2.0, float(m.position[1]) + 3.5], "pose": "stand"}]}]},
+        env=env)
+    res = plan_scenario(sc, default_graph, env)
+    c = res.characters[0]
+    pos, head = box_trajectories(sc, res.characters, default_graph, env, res.num_frames)[box]
+    f_pick, f_put = c.arrivals
+    np.testing.assert_allclose(pos[0, [0, 2]], m.position, atol=1e-9)          # waits at its marker
+    sk = default_graph.skeleton
+    hands = joint_positions(default_graph, c.track)[:, [sk.index("LeftHand"), sk.index("RightHand")]].mean(axis=1)
+    for f in (f_pick, f_pick + 5, (f_pick + f_put) // 2, f_put):
+        np.testing.assert_allclose(pos[f], hands[f], atol=1e-9)                 # carried between the hands
+    assert pos[f_pick + 5, 1] > 0.6                                              # held up, not dragged
+    assert abs(pos[-1, 1] - 0.2) < 1e-9 and np.linalg.norm(pos[-1, [0, 2]] - m.position) > 0.5   # put down elsewhere

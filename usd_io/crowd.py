@@ -138,3 +138,27 @@ def read_tracks(stage_or_path) -> dict:
             raise ValueError(f"{prim.GetPath()}: crowdweave frame arrays and crowdweave:root disagree in length")
         out[prim.GetName()] = Track(fa, fb, ft, root, start)
     return out
+
+
+def write_props(stage, boxes: dict, size: float = 0.4) -> None:
+    """Boxes as Cube prims under /World/Props with time-sampled translate and rotateY
+    (``boxes``: marker path -> (centres (F, 3), headings (F,) radians), from the runtime)."""
+    if not boxes:
+        return
+    UsdGeom.Scope.Define(stage, "/World/Props")
+    for path, (pos, head) in boxes.items():
+        cube = UsdGeom.Cube.Define(stage, Sdf.Path("/World/Props").AppendChild(valid_prim_name(path.split("/")[-1], "Box")))
+        cube.CreateSizeAttr(size)
+        cube.GetPrim().CreateAttribute("crowdweave:marker", Sdf.ValueTypeNames.String).Set(path)
+        tr = cube.AddTranslateOp()
+        ry = cube.AddRotateYOp()
+        layer = stage.GetEditTarget().GetLayer()
+        moving = np.any(np.abs(np.diff(pos, axis=0)) > 1e-9)
+        if not moving:
+            tr.Set(tuple(float(v) for v in pos[0]))
+            ry.Set(float(np.degrees(head[0])))
+            continue
+        with Sdf.ChangeBlock():
+            for k in range(len(pos)):
+                layer.SetTimeSample(tr.GetAttr().GetPath(), float(k), tuple(float(v) for v in pos[k]))
+                layer.SetTimeSample(ry.GetAttr().GetPath(), float(k), float(np.degrees(head[k])))

@@ -133,6 +133,9 @@ def run(args) -> int:
     stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
                               out_path=out,
                               metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
+    from runtime.crowd.tracks import box_trajectories
+    from usd_io.crowd import write_props
+    write_props(stage, box_trajectories(sc, result.characters, graph, env, result.num_frames))
     if flock_report:
         from usd_io.flock import write_flock_instancer
         for name, (pos, ori) in flock_report.pop("_arrays").items():

@@ -59,3 +59,50 @@ def evaluate_poses(graph, frames_a, frames_b, frames_t, root):
 def joint_positions(graph, track: Track) -> np.ndarray:
     pos, rot = evaluate_poses(graph, track.frames_a, track.frames_b, track.frames_t, track.root)
     return forward_kinematics(graph.skeleton, pos, rot)[1]
+
+
+def box_trajectories(scenario, results, graph, env, num_frames: int, box_size: float = 0.4):
+    """Where every box marker is on every frame: at its marker until the character that picks
+    it up arrives there, then between that character's hands until it is put down, then where
+    it was put down. Returns {marker path: (positions (F, 3) box centres, headings (F,))}."""
+    if env is None:
+        return {}
+    sk = graph.skeleton
+    hands = [sk.index(n) for n in ("LeftHand", "RightHand") if sk.has(n)]
+    boxes = {}
+    for m in env.markers_with_role("box"):
+        pos = np.tile([m.position[0], box_size / 2, m.position[1]], (num_frames, 1)).astype(np.float64)
+        boxes[m.path] = (pos, np.full(num_frames, m.heading))
+    for spec, res in zip(scenario.characters, results):
+        carrying, start = None, 0
+        for gi, g in enumerate(spec.goals):
+            f = int(res.arrivals[gi]) if gi < len(res.arrivals) else num_frames - 1
+            if g.kind == "box" and g.marker in boxes:
+                carrying, start = g.marker, f
+            elif carrying is not None and g.pose in ("stand", None):
+                _carry(boxes[carrying], graph, res.track, hands, start, f, num_frames, box_size)
+                carrying = None
+        if carrying is not None:
+            _carry(boxes[carrying], graph, res.track, hands, start, num_frames - 1, num_frames, box_size, hold=True)
+    return boxes
+
+
+def _carry(box, graph, track, hands, f0, f1, num_frames, size, hold=False):
+    pos, head = box
+    f1 = min(f1, len(track) - 1, num_frames - 1)
+    if f1 <= f0:
+        return
+    sub = track.slice(f0, f1 + 1)
+    jp = joint_positions(graph, sub)
+    if hands:
+        centre = jp[:, hands].mean(axis=1)
+    else:
+        fwd = np.stack([np.sin(sub.root[:, 2]), np.cos(sub.root[:, 2])], axis=1)
+        centre = np.column_stack([sub.root[:, 0] + 0.35 * fwd[:, 0], np.full(len(sub), 0.85),
+                                  sub.root[:, 1] + 0.35 * fwd[:, 1]])
+    pos[f0:f1 + 1] = centre
+    head[f0:f1 + 1] = sub.root[:, 2]
+    if not hold:
+        # put down: it stays on the ground below where the hands let go
+        pos[f1 + 1:] = [centre[-1, 0], size / 2, centre[-1, 2]]
+        head[f1 + 1:] = sub.root[-1, 2]
