@@ -28,8 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FrameFeatures", "frame_features", "pair_distance", "distance_rows", "iter_distance_chunks",
-           "aligned_distance_reference", "DEFAULT_JOINT_WEIGHTS"]
+__all__ = ["FrameFeatures", "frame_features", "pair_distance", "distance_rows", "aligned_distance_reference", "DEFAULT_JOINT_WEIGHTS"]
 
 # Relative joint weights (by name; joints not listed get 1). Fingers and thumbs are not
 # captured in CMU data (README quirk 2): they get no weight.
@@ -115,19 +114,6 @@ def distance_rows(f: FrameFeatures, rows: slice | np.ndarray, cols: slice | np.n
 
 def pair_distance(f: FrameFeatures, i: int, j: int) -> float:
     return float(distance_rows(f, slice(i, i + 1), slice(j, j + 1))[0][0, 0])
-
-
-def iter_distance_chunks(f: FrameFeatures, chunk: int = 1024, halo: int = 1):
-    """Yield (row_start, row_stop, D_block) for consecutive row chunks. The block carries
-    ``halo`` extra rows on each side (clamped) so that callers can find local minima along
-    rows and columns; ``D_block`` rows correspond to frames ``[lo, hi)`` with
-    ``lo = max(0, row_start - halo)``."""
-    N = len(f.sq)
-    for s in range(0, N, chunk):
-        e = min(N, s + chunk)
-        lo, hi = max(0, s - halo), min(N, e + halo)
-        D, _ = distance_rows(f, slice(lo, hi))
-        yield s, e, lo, D
 
 
 def aligned_distance_reference(P: np.ndarray, Q: np.ndarray, w: np.ndarray):
