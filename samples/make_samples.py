@@ -628,7 +628,7 @@ def grid_scenario(cols: int, rows: int, spacing: float = 2.2, shift: float | Non
     n = cols * rows
     return {"name": name or f"grid{n}", "description": f"Experiment 6 (paper 000, Figure 10): {cols} x {rows} "
             f"grid, {spacing:g} m spacing, to the grid translated {shift:g} m along +X with perturbed targets",
-            "library": "default", "duration": 40.0, "seed": seed, "character": chars}
+            "library": "default", "duration": 60.0, "seed": seed, "character": chars}
 
 
 # ----------------------------------------------------------------------------------------------
