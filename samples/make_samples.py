@@ -631,21 +631,6 @@ def grid_scenario(cols: int, rows: int, spacing: float = 2.2, shift: float | Non
             "library": "default", "duration": 60.0, "seed": seed, "character": chars}
 
 
-# ----------------------------------------------------------------------------------------------
-def main(argv=None) -> int:
-    import argparse
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("names", nargs="*", help=f"samples to write (default all: {', '.join(SAMPLES)})")
-    args = ap.parse_args(argv)
-    names = args.names or list(SAMPLES)
-    for name in names:
-        if name not in BUILDERS:
-            ap.error(f"unknown sample {name!r} (known: {', '.join(SAMPLES)})")
-        BUILDERS[name](HERE / name)
-        print(f"wrote {HERE / name}")
-    return 0
-
-
 def build_meet20(folder):
     sc = meet_scenario()
     _write(folder, sc, README["meet20"])
@@ -781,6 +766,22 @@ def build_fetch_boxes20(folder):
 
 BUILDERS = {"rooms_box": build_rooms_box, "theater40": build_theater40, "fetch_boxes20": build_fetch_boxes20,
             "meet20": build_meet20, "spell70": build_spell70, "grid300": build_grid(300), "grid500": build_grid(500)}
+
+
+# ----------------------------------------------------------------------------------------------
+def main(argv=None) -> int:
+    import argparse
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("names", nargs="*", help=f"samples to write (default all: {', '.join(SAMPLES)})")
+    args = ap.parse_args(argv)
+    names = args.names or list(SAMPLES)
+    for name in names:
+        if name not in BUILDERS:
+            ap.error(f"unknown sample {name!r} (known: {', '.join(SAMPLES)})")
+        BUILDERS[name](HERE / name)
+        print(f"wrote {HERE / name}")
+    return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main())

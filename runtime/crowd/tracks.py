@@ -36,11 +36,19 @@ class Track:
 def concat_tracks(parts: list[Track], drop_shared_first: bool = True) -> Track:
     """Join consecutive tracks; each part's first frame repeats the previous part's last."""
     out = [parts[0]]
+    roots = [parts[0].root]
     for p in parts[1:]:
-        out.append(p.slice(1, None) if drop_shared_first else p)
+        q = p.slice(1, None) if drop_shared_first else p
+        out.append(q)
+        # headings continue without 2*pi jumps (each segment is planned in its own winding)
+        r = q.root.copy()
+        if len(r):
+            ref = p.root[0, 2] if drop_shared_first else r[0, 2]
+            r[:, 2] += 2 * np.pi * np.round((roots[-1][-1, 2] - ref) / (2 * np.pi))
+        roots.append(r)
     return Track(np.concatenate([p.frames_a for p in out]), np.concatenate([p.frames_b for p in out]),
                  np.concatenate([p.frames_t for p in out]).astype(np.float32),
-                 np.concatenate([p.root for p in out]), parts[0].start_frame)
+                 np.concatenate(roots), parts[0].start_frame)
 
 
 def evaluate_poses(graph, frames_a, frames_b, frames_t, root):
