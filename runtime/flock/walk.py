@@ -24,8 +24,8 @@ once); if even that fails the flock takes the longest inside path, or the edge l
 last (``stats["fallbacks"]``, zero in the tests and benchmarks).
 
 The search tests cheap bounding circles (whole edge, then runs of 8 frames) against a
-plain-Python lower bound of the region's depth (:meth:`Region.depth_bound`, refined exactly when
-inconclusive); an edge is accepted only when every run is certified inside (or, with
+plain-Python lower bound of the region's depth (:meth:`Region.depth_bound`; an inconclusive
+bound counts as outside, or, with ``frame_exact``, is refined exactly); an edge is accepted only when every run is certified inside (or, with
 ``frame_exact``, every frame), so an accepted path never leaves the region.
 
 Randomness is a counter-based hash of ``(seed, flock, counter)``: every flock's walk is
@@ -75,9 +75,11 @@ class FlockSystem:
     (metres of random slack in the inward bias); ``plan_budget`` (DFS node expansions per
     :meth:`step` for look-ahead ahead of time); ``search_limit`` (expansions per search);
     ``max_depth`` (edges a plan may hold); ``frame_exact`` (False: an edge counts as inside only
-    if circles around runs of 8 frames of its centroid track are certified inside -- cheaper,
-    and it keeps flocks a circle radius, typically under a metre, off the boundary; True: frames
-    near the boundary are tested one by one).
+    if circles around runs of 8 frames of its centroid track are certified inside by the
+    region's depth grid alone -- an inconclusive grid cell counts as outside, so no exact polygon
+    test runs; cheaper, and it keeps flocks a circle radius plus a grid cell, typically about a
+    metre, off the boundary; True: inconclusive circles are settled exactly and frames near the
+    boundary are tested one by one).
 
     Outputs (all flocks at once): :meth:`positions`, :meth:`velocities`, :meth:`headings`,
     :meth:`orientations`, :meth:`centroids`; :meth:`slots` and :meth:`current_edges` expose the
@@ -340,7 +342,7 @@ class FlockSystem:
         for k, (chunks, rend, (ex, ey, ez, R, Rend)) in enumerate(per_edge):
             wx, wy, wz = c * ex + s * ez + tx, ey + ty, -s * ex + c * ez + tz
             d = fn(wx, wy, wz)
-            if d < R and d + err >= R:                   # inconclusive: settle the centre exactly
+            if fine and d < R and d + err >= R:          # inconclusive: settle the centre exactly
                 d = exact(wx, wy, wz)
             if d >= R:                                   # the whole edge's circle is inside
                 ok.append(edges[k])
@@ -353,7 +355,7 @@ class FlockSystem:
             for cx, cy, cz, r, i0, i1 in chunks:
                 wx, wy, wz = c * cx + s * cz + tx, cy + ty, -s * cx + c * cz + tz
                 d = fn(wx, wy, wz)
-                if d < r and d + err >= r:
+                if fine and d < r and d + err >= r:
                     d = exact(wx, wy, wz)
                 if d >= r:
                     continue
