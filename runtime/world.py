@@ -124,7 +124,7 @@ class World:
         self._slots: list = []
         self._plan_queue: deque = deque()
         self._active: _Char | None = None
-        self.index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 0.1))
+        self.index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 2 * (self.lib.params.margin + self.lib.params.seed_margin) + 0.1))
         self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "characters": 0, "queue": 0, "ticks": 0}
         self.selected = None
         self._step_ema = 0.0005         # running average of a planner step's duration (s)

@@ -8,6 +8,7 @@ duration = 20.0             # seconds to bake
 seed = 0
 [synthesis]                 # optional, paper defaults
 epsilon = [0.02, 2.0, 0.0667]
+passes = 3                  # planning passes: characters left without a clean plan go first next time
 [[character]]
 name = "c01"
 start = { position = [0.0, 0.0], heading = 0.0, pose = "stand" }   # or seat = "/World/Seats/s01"
@@ -259,8 +260,9 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
     return sc
 
 
-def planning_order(sc: Scenario) -> list[int]:
-    """Characters in an order that respects ``after`` (topological; ties keep file order).
+def planning_order(sc: Scenario, first=()) -> list[int]:
+    """Characters in an order that respects ``after`` (topological; ties keep file order,
+    except that the characters in ``first`` come as early as their dependencies allow).
     A cycle is a ScenarioError naming the characters in it."""
     idx = {c.name: i for i, c in enumerate(sc.characters)}
     deps = [set() for _ in sc.characters]
@@ -296,7 +298,8 @@ def planning_order(sc: Scenario) -> list[int]:
         state[i] = 2
         order.append(i)
 
-    for i in range(len(deps)):
+    front = [i for i in first if 0 <= i < len(deps)]
+    for i in front + [i for i in range(len(deps)) if i not in set(front)]:
         visit(i, [])
     return order
 

@@ -96,15 +96,39 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     lib = MotionLibrary(graph, params)
     fps = params.fps
     n_total = int(round(sc.duration * fps)) + 1
-    index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * params.margin + 0.05))
     sdf = env.sdf(resolution=0.05, margin=2.0) if env is not None and (len(env.polygons) or len(env.circles)) else None
     # the sampled field may overestimate clearance by up to max_error: stay conservative
     static = (lambda xz: sdf.sample(xz) - sdf.max_error) if sdf is not None else None
-    order = planning_order(sc)
-    rng = np.random.default_rng(sc.seed)
-    results: dict[int, CharacterResult] = {}
     t_all = time.perf_counter()
+    passes = max(1, int(sc.synthesis.get("passes", 3)))
+    best = None
+    failed_first: list[int] = []
+    for k in range(passes):
+        order = planning_order(sc, first=failed_first)
+        results = _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order,
+                             progress if k == 0 else None, log)
+        failed = [ci for ci in order if results[ci].warnings]
+        if best is None or len(failed) < best[0]:
+            best = (len(failed), order, results)
+        if not failed:
+            break
+        if log:
+            log(f"pass {k + 1}: {len(failed)} character(s) without a clean plan; planning them earlier")
+        # the characters that failed are planned earlier next time (before those they ran into)
+        failed_first = failed + [ci for ci in failed_first if ci not in set(failed)]
+    _, order, results = best
+    total = time.perf_counter() - t_all
+    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total)
+
+
+def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order, progress, log):
+    """One pass over the characters in ``order``; each has its own random stream (seeded by
+    the scenario seed and its index), so its plan depends on the order only through the
+    characters planned before it."""
+    index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05))
+    results: dict[int, CharacterResult] = {}
     for ci in order:
+        rng = np.random.default_rng([int(sc.seed), int(ci)])
         c = sc.characters[ci]
         t0 = time.perf_counter()
         owner = ci
@@ -159,5 +183,4 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
                                       arrivals[-1] / fps if arrivals else 0.0)
         if progress:
             progress(1)
-    total = time.perf_counter() - t_all
-    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total)
+    return results

@@ -86,6 +86,8 @@ class SynthesisParams:
     sweep: int = 100               # perturbations per iteration spent on every alternative of one clip
     sweep_pairs: int = 2000        # two-clip combinations scored per pair sweep (a random subset)
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
+    seed_margin: float = 0.0       # extra clearance (m) from planned characters in the seeds
+    max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     fps: float = 30.0
 
     @property
@@ -285,7 +287,9 @@ class SegmentPlanner:
         if self.static is not None:
             bad |= self.static(world[:, :2]) < rad
         if moving and self.collide is not None:
-            bad |= self.collide(frames0[which] + lib.samp_off[sidx], world[:, :2], rad)
+            # seeds keep a wider berth from moving characters: the splice later shifts the
+            # motion in space (displacement maps) and in time (resampling)
+            bad |= self.collide(frames0[which] + lib.samp_off[sidx], world[:, :2], rad + self.p.seed_margin)
         ok &= ~np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(cnt)[:-1]])) if len(bad) else ok
         return ok
 
@@ -375,6 +379,7 @@ class SegmentPlanner:
 
         seg_len = np.hypot(*np.diff(waypoints, axis=0).T) if len(waypoints) > 1 else np.zeros(0)
         elapsed = 0.0
+        waits = 0
         table = lib.lookahead(reverse, travel)
         while len(edges) < self.p.max_seed_edges:
             final = wi >= last
@@ -398,7 +403,11 @@ class SegmentPlanner:
                 remaining = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1])) + float(seg_len[wi:].sum())
                 left = time_budget - elapsed
                 loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
-                if len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
+                # surplus time is spent idling at the start of the segment, where the character
+                # already stands: a forward seed idles first; a backward seed (which runs back
+                # from the goal) never idles, or the motion would stand at the goal early, in
+                # the way of characters passing before the window opens
+                if not reverse and len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
                     advance(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
                     elapsed += float(lib.dur[edges[-1]])
                     continue
@@ -424,6 +433,19 @@ class SegmentPlanner:
                                  moving=(not reverse) or time_budget is not None)
                 if ok.any():
                     pick = cand[np.argmax(ok)]
+                elif waits < self.p.max_waits:
+                    # every improving edge runs into someone already planned: wait for them
+                    # to pass on the node's most stationary self-loop clip, if that is clear
+                    loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
+                    if len(loops):
+                        w = loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))][None]
+                        fr = np.array([frame]) if not reverse else frame - (lib.nframes[w] - 1)
+                        if self._clear(w, cfg[None], fr, moving=(not reverse) or time_budget is not None)[0]:
+                            waits += 1
+                            advance(int(w[0]))
+                            elapsed += float(lib.dur[w[0]])
+                            yield
+                            continue
             if pick is None:
                 if not final:
                     wi += 1
@@ -831,17 +853,29 @@ class SegmentPlanner:
         else:
             m1 = n_src - 1
         m1 = max(m1, 1)
-        u = np.arange(m1 + 1) * ((n_src - 1) / m1)
+        # Each part is resampled on its own so that the junction lands exactly on an output
+        # frame: an output frame straddling it would mix the two parts' displacement maps (whose
+        # raw paths meet at an angle, the heading error not yet spread) into one step.
+        jf = len(ff) - 1 if len(ff) and len(bf) else -1          # junction index in the source
+        if 0 < jf < n_src - 1 and m1 >= 2:
+            mf = int(np.clip(round(m1 * jf / (n_src - 1)), 1, m1 - 1))
+            u = np.concatenate([np.arange(mf) * (jf / mf),
+                                jf + np.arange(m1 - mf + 1) * ((n_src - 1 - jf) / (m1 - mf))])
+            s_parts = (jf / mf, (n_src - 1 - jf) / (m1 - mf))
+        else:
+            u = np.arange(m1 + 1) * ((n_src - 1) / m1)
+            s_parts = ((n_src - 1) / m1,)
         u[-1] = n_src - 1
-        a = np.floor(u).astype(np.int64)
+        a = np.floor(u + 1e-9).astype(np.int64)
         a = np.minimum(a, n_src - 2) if n_src > 1 else a
-        t = u - a
+        t = np.clip(u - a, 0.0, 1.0)
         b = np.minimum(a + 1, n_src - 1)
         root = src_root[a] * (1 - t)[:, None] + src_root[b] * t[:, None]
         root[0] = src_root[0]
         root[-1] = src_root[-1]
-        s = (n_src - 1) / m1
-        rates = (float(np.hypot(*dp) * s / N), float(np.degrees(abs(dh)) * s / N), float(abs(s - 1.0)))
+        s = max(s_parts)
+        rates = (float(np.hypot(*dp) * s / N), float(np.degrees(abs(dh)) * s / N),
+                 float(max(abs(x - 1.0) for x in s_parts)))
         end = Config(int(goal_node), float(root[-1, 0]), float(root[-1, 1]), float(root[-1, 2]), start.frame + m1)
         # exact end: the last frame is the goal configuration by construction
         return SegmentResult(True, src_frames[a], src_frames[b], t.astype(np.float32), root, start.frame, end,
