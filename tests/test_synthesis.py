@@ -1,0 +1,126 @@
+"""Goal-directed synthesis (paper 000) against the independent checker (issue 4).
+
+The planner's own numbers are never asserted on: the checker recomputes arrivals, per-frame
+adjustment and overlaps from the baked tracks."""
+import copy
+
+import numpy as np
+import pytest
+
+from runtime.crowd.checker import adjustment_rates, check_crowd, overlapping_pairs
+from runtime.crowd.scenario import parse_scenario, planning_order
+from runtime.crowd.scheduler import plan_scenario, run_to_completion
+from runtime.crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams
+from runtime.crowd.tracks import Track
+
+
+def crossing_scenario(seed=0):
+    """Four characters whose straight paths cross near the origin inside one time window."""
+    chars = []
+    for k, (sx, sz, gx, gz) in enumerate([(-6, 0, 6, 1), (0, -6, 1, 6), (-5, -5, 5, 5), (6, -4, -6, 4)]):
+        chars.append({"name": f"c{k}", "start": {"position": [sx, sz], "heading": float(np.degrees(np.arctan2(gx - sx, gz - sz))),
+                                                  "pose": "stand"},
+                      "goal": [{"position": [gx, gz], "heading": 90.0 * k, "pose": "stand", "time": [13.0, 14.0]}]})
+    return parse_scenario({"name": "cross", "duration": 16.0, "seed": seed, "character": chars})
+
+
+@pytest.fixture(scope="module")
+def crossing(default_graph):
+    sc = crossing_scenario()
+    return sc, plan_scenario(sc, default_graph)
+
+
+def test_crossing_paths_pass_the_checker(crossing, default_graph):
+    sc, res = crossing
+    rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
+    s = rep["summary"]
+    assert s["max_position_error_mm"] <= 1.0
+    assert s["max_heading_error_deg"] <= 0.1
+    assert s["goals_in_window"] == 4 and s["poses_ok"] == 4
+    assert s["characters_within_eps"] == 4
+    assert s["character_overlap_pairs"] == 0
+    assert s["passed"]
+    # the characters did pass close to each other: the test is not trivially collision-free
+    XZ = np.stack([c.track.root[:, :2] for c in res.characters], axis=1)
+    d = np.linalg.norm(XZ[:, :, None] - XZ[:, None, :], axis=-1)
+    d[:, np.arange(4), np.arange(4)] = np.inf
+    assert d.min() < 3.0
+
+
+def test_same_seed_same_tracks(crossing, default_graph):
+    sc, res = crossing
+    again = plan_scenario(crossing_scenario(), default_graph)
+    for a, b in zip(res.characters, again.characters):
+        np.testing.assert_array_equal(a.track.root, b.track.root)
+        np.testing.assert_array_equal(a.track.frames_a, b.track.frames_a)
+
+
+def test_checker_catches_a_moved_goal_and_an_overlap(crossing, default_graph):
+    sc, res = crossing
+    tracks = {c.name: c.track for c in res.characters}
+    bad = copy.deepcopy(sc)
+    bad.characters[0].goals[0].position = bad.characters[0].goals[0].position + np.array([0.05, 0.0])
+    assert check_crowd(bad, tracks, default_graph)["summary"]["max_position_error_mm"] > 40.0
+    # put c1 on top of c0 for the whole scenario
+    t0, t1 = tracks["c0"], tracks["c1"]
+    tracks2 = dict(tracks)
+    tracks2["c1"] = Track(t1.frames_a, t1.frames_b, t1.frames_t, t0.root.copy(), t1.start_frame)
+    rep = check_crowd(sc, tracks2, default_graph)
+    assert {"a": "c0", "b": "c1"} in [{k: r[k] for k in ("a", "b")} for r in rep["character_overlaps"]]
+    assert not rep["summary"]["passed"]
+
+
+def test_checker_measures_an_added_drift(crossing, default_graph):
+    sc, res = crossing
+    tr = res.characters[0].track
+    k1 = res.characters[0].arrivals[0]
+    base = adjustment_rates(default_graph, tr, 0, k1, 30.0)
+    # add a 5 cm/s sideways drift over the middle third: the checker must see at least that
+    root = tr.root.copy()
+    a, b = k1 // 3, 2 * k1 // 3
+    drift = np.zeros(len(root))
+    drift[a:b] = np.arange(b - a) * (0.05 / 30.0)
+    drift[b:] = drift[b - 1]
+    root[:, 0] += drift
+    moved = adjustment_rates(default_graph, Track(tr.frames_a, tr.frames_b, tr.frames_t, root, tr.start_frame), 0, k1, 30.0)
+    assert base[0] <= 0.02 * 1.001
+    assert moved[0] >= 0.05 - base[0] - 1e-6
+
+
+def test_splice_rates_equal_the_checkers(default_graph):
+    """A segment with a window that forces time warping: the per-frame adjustment the planner
+    promises is what the checker measures on the baked frames (no straddled junction)."""
+    lib = MotionLibrary(default_graph, SynthesisParams())
+    planner = SegmentPlanner(lib)
+    node = int(default_graph.nodes_with_label("stand")[0])
+    rng = np.random.default_rng(3)
+    checked = 0
+    for gx, gz, t in [(5.0, 3.0, (6.5, 6.6)), (-4.0, 6.0, (8.0, 8.1)), (7.0, -2.0, (5.0, 5.05))]:
+        goal = Goal(np.array([gx, gz]), np.radians(40.0), default_graph.nodes_with_label("stand"), t)
+        res = run_to_completion(planner.run(Config(node, 0.0, 0.0, 0.0, 0), goal, rng))
+        tr = Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame)
+        got = adjustment_rates(default_graph, tr, 0, len(tr) - 1, 30.0)
+        if res.ok:
+            checked += 1
+            np.testing.assert_allclose(got[:2], res.rates[:2], rtol=1e-3, atol=1e-4)
+            assert abs(got[2] - res.rates[2]) < 1e-4
+    assert checked >= 2
+
+
+def test_overlapping_pairs_counts_frames():
+    XZ = np.zeros((5, 3, 2))
+    XZ[:, 1, 0] = [0.3, 0.5, 2.0, 2.0, 0.1]
+    XZ[:, 2, 0] = 10.0
+    R = np.full((5, 3), 0.2)
+    assert overlapping_pairs(XZ, R) == {(0, 1): 2}      # 0.3 and 0.1 apart; 0.5 is not below 0.4
+
+
+def test_planning_order_puts_failed_characters_first_but_keeps_dependencies():
+    sc = parse_scenario({"name": "o", "duration": 10.0, "character": [
+        {"name": "a", "start": {"position": [0, 0]}, "goal": [{"position": [1, 0]}]},
+        {"name": "b", "start": {"position": [0, 3]}, "goal": [{"position": [1, 3]}]},
+        {"name": "c", "start": {"position": [0, 6]},
+         "goal": [{"position": [1, 6], "after": {"character": "b", "goal": 0, "within": [0.0, 2.0]}}]}]})
+    assert planning_order(sc) == [0, 1, 2]
+    assert planning_order(sc, first=[2]) == [1, 2, 0]
+    assert planning_order(sc, first=[1]) == [1, 0, 2]
