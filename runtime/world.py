@@ -110,7 +110,7 @@ class World:
         # that cannot be planned must not hold the queue for seconds
         # and each step is kept small (n_m perturbations per iteration) so that one step fits
         # well inside the per-tick budget
-        self.params = params or SynthesisParams(fps=self.fps, n_max=150, n_m=48, k_m=16, sweep=24)
+        self.params = params or SynthesisParams(fps=self.fps, n_max=150, n_m=48, k_m=16, sweep=24, backward_idle=True)
         self.lib = MotionLibrary(self.graph, self.params)
         self.rng = np.random.default_rng(seed)
         self.frame = 0

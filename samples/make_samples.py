@@ -375,27 +375,26 @@ def rooms_world() -> WorldBuilder:
     w.wall("West", (8, -8), (8, 8), doors=[(3.0, D), (13.5, D)])         # z = -5 and z = 5.5
     w.wall("East", (16, -8), (16, 8), doors=[(5.0, D), (12.0, D)])       # z = -3 and z = 4
     # furniture: every gap to a wall or another piece is either closed (< 0.6 m) or at least
-    # 1.5 m wide, so that the roadmap (obstacles grown by 0.35 m) never routes a walking
-    # character (radius up to 0.63 m) through a slot it does not fit
+    # 1.9 m wide: a walking character's cylinder (radius up to 0.63 m) plus clearance on both
+    # sides, so that the roadmap (obstacles grown by 0.6 m) never routes one through a slot
+    # its stride cannot follow
     # lower right (start room)
-    w.block("LR_Table", 18.0, 1.8, 20.0, 3.0, 0.75)
-    w.pillar("LR_Pillar", 22.0, 4.2, 0.3)
+    w.block("LR_Table", 18.5, 0.1, 20.5, 1.0, 0.75)
     w.block("LR_Cabinet", 22.8, 6.4, 23.9, 7.9, 1.8)
     # lower middle
     w.block("LM_Sofa", 11.4, 3.2, 12.4, 6.0, 0.8)
     w.block("LM_Crates", 14.9, 6.6, 15.9, 7.9, 1.0)
     w.block("LM_Desk", 8.1, 0.1, 10.1, 1.2, 0.75)
     # lower left
-    w.pillar("LL_Pillar", 3.6, 4.8, 0.4)
     w.block("LL_Shelf", 0.6, 6.2, 2.2, 7.6, 2.0)
-    w.block("LL_Table", 4.6, 1.8, 6.2, 2.8, 0.75)
+    w.block("LL_Table", 4.4, 2.0, 6.0, 3.0, 0.75)
     # upper left
     w.block("UL_Table", 0.1, -4.4, 2.5, -3.2, 0.75)
     w.pillar("UL_Pillar", 5.6, -2.6, 0.4)
     w.block("UL_Cabinet", 5.8, -7.6, 7.4, -6.6, 1.8)
     # upper middle
     w.block("UM_LongTable", 10.0, -4.6, 14.0, -3.4, 0.75)
-    w.block("UM_Crates", 11.0, -1.6, 12.0, -0.6, 1.0)
+    w.block("UM_Crates", 11.0, -1.1, 12.0, -0.1, 1.0)
     w.block("UM_Cabinet", 12.0, -7.9, 13.5, -7.2, 1.8)
     # upper right (the box)
     w.block("UR_Shelf", 22.6, -7.6, 23.6, -3.0, 2.2)
@@ -409,7 +408,7 @@ def rooms_world() -> WorldBuilder:
 ROOM_POINTS = {
     "LR": [(18.6, 6.4), (22.4, 1.2), (19.8, 4.2)],
     "LM_a": [(9.6, 3.0), (14.4, 2.0), (13.8, 5.0)],
-    "LM_b": [(10.4, 6.8), (14.6, 1.4), (9.8, 2.6)],
+    "LM_b": [(10.4, 6.8), (13.6, 1.2), (10.6, 2.4)],
     "LL": [(1.6, 2.2), (5.6, 6.8), (2.2, 4.6)],
     "UL": [(1.6, -6.4), (4.4, -5.6), (1.4, -1.8)],
     "UM_a": [(9.6, -1.4), (14.0, -1.2), (11.0, -6.4)],

@@ -64,3 +64,251 @@ def test_carried_box_moves_with_the_hands(default_graph):
         np.testing.assert_allclose(pos[f], hands[f], atol=1e-9)                 # carried between the hands
     assert pos[f_pick + 5, 1] > 0.6                                              # held up, not dragged
     assert abs(pos[-1, 1] - 0.2) < 1e-9 and np.linalg.norm(pos[-1, [0, 2]] - m.position) > 0.5   # put down elsewhere
+
+
+# -- round trip: crowdweave:root and joint world positions, single layer and value clips ----------
+import json  # noqa: E402
+import os  # noqa: E402
+import pytest  # noqa: E402
+from pxr import Sdf  # noqa: E402
+
+from runtime.crowd.tracks import Track, joint_positions  # noqa: E402
+from usd_io import clips as usd_clips  # noqa: E402
+from usd_io import stage as usd_stage  # noqa: E402
+from usd_io.crowd import read_tracks, save_crowd_stage  # noqa: E402
+from usd_io.skel import joint_world_positions  # noqa: E402
+from usd_io.validate import errors, format_issues  # noqa: E402
+
+
+def _synthetic(graph, rng, frames, start):
+    """A track playing library frames from a random place, wandering, starting at clock frame ``start``."""
+    a = int(rng.integers(0, len(graph.frame_heading) - frames - 1))
+    fa = np.arange(a, a + frames)
+    root = np.column_stack([rng.uniform(-5, 5) + np.cumsum(rng.normal(0, 0.03, frames)),
+                            rng.uniform(-5, 5) + np.cumsum(rng.normal(0, 0.03, frames)),
+                            rng.uniform(-3, 3) + np.cumsum(rng.normal(0, 0.05, frames))])
+    return Track(fa, fa + 1, rng.uniform(0, 1, frames).astype(np.float32), root, start)
+
+
+@pytest.fixture(scope="module")
+def crowd_tracks(default_graph):
+    """One planned character (the planner's track) and three synthetic ones, one of them entering
+    at clock frame 7 and leaving early, one with a name that is not a USD identifier."""
+    sc = parse_scenario({"name": "t", "duration": 4.0, "character": [
+        {"name": "a", "start": {"position": [-6.0, -6.0], "pose": "stand"}, "goal": [{"position": [-4.0, -3.0]}]}]})
+    res = plan_scenario(sc, default_graph)
+    rng = np.random.default_rng(3)
+    tracks = {"a": res.characters[0].track}
+    tracks["late one"] = _synthetic(default_graph, rng, 50, 7)
+    tracks["c"] = _synthetic(default_graph, rng, 121, 0)
+    tracks["d"] = _synthetic(default_graph, rng, 90, 0)
+    return tracks
+
+
+def _bake(tracks, graph, out, **kw):
+    stage = build_crowd_stage(tracks, graph, 30.0, out_path=out, metadata={"scenario": "t"}, **kw)
+    save_crowd_stage(stage, out)
+    return out
+
+
+def _assert_round_trip(path, tracks, graph):
+    issues = validate_stage(path)
+    assert errors(issues) == [], format_issues(issues)
+    st = Usd.Stage.Open(str(path))
+    assert (st.GetStartTimeCode(), st.GetEndTimeCode()) == (0.0, 120.0)
+    prims = st.GetPrimAtPath("/World/Characters").GetChildren()
+    assert sorted(p.GetName() for p in prims) == sorted(["a", "late_one", "c", "d"])
+    for name, tr in tracks.items():
+        prim_path = f"/World/Characters/{name.replace(' ', '_')}"
+        attr = st.GetPrimAtPath(prim_path).GetAttribute("crowdweave:root")
+        times = np.array(attr.GetTimeSamples())
+        np.testing.assert_array_equal(times, tr.start_frame + np.arange(len(tr)))
+        baked = np.array([attr.Get(t) for t in times])
+        plan = np.column_stack([tr.root[:, 0], tr.root[:, 1], np.degrees(tr.root[:, 2])])
+        np.testing.assert_allclose(baked, plan, rtol=0, atol=1e-12)       # the plan's x, z, heading (deg)
+        usd = joint_world_positions(st, prim_path, times)                  # UsdSkel's own evaluation
+        np.testing.assert_allclose(usd, joint_positions(graph, tr), rtol=0, atol=1e-4)   # runtime FK
+    back = read_tracks(path)
+    for name, tr in tracks.items():
+        b = back[name.replace(" ", "_")]
+        np.testing.assert_allclose(b.root, tr.root, atol=1e-12)
+        np.testing.assert_array_equal(b.frames_a, tr.frames_a)
+        assert b.start_frame == tr.start_frame
+
+
+def test_round_trip_single_layer(crowd_tracks, default_graph, tmp_path):
+    out = _bake(crowd_tracks, default_graph, tmp_path / "crowd.usdc")
+    _assert_round_trip(out, crowd_tracks, default_graph)
+    assert sorted(os.listdir(tmp_path)) == ["crowd.usdc"]
+
+
+def test_round_trip_value_clips(crowd_tracks, default_graph, tmp_path):
+    """Value clips, two characters per layer, written by two worker processes: the same poses and
+    roots read back through UsdSkel and Usd's clip resolution; the stage itself holds no samples."""
+    out = _bake(crowd_tracks, default_graph, tmp_path / "crowd.usdc", clips_per=2, workers=2)
+    _assert_round_trip(out, crowd_tracks, default_graph)
+    dirs = [d for d in tmp_path.iterdir() if d.is_dir()]
+    assert len(dirs) == 1 and usd_clips.clip_dir_pattern(out).fullmatch(dirs[0].name)
+    assert sorted(os.listdir(dirs[0])) == ["chunk_0000.usdc", "chunk_0001.usdc", "manifest.usda"]
+    assert sorted(os.listdir(tmp_path)) == sorted(["crowd.usdc", dirs[0].name])   # no temporary left
+    top = Sdf.Layer.FindOrOpen(str(out))
+    for p in ("/World/Characters/a/Skel/Anim.rotations", "/World/Characters/a.crowdweave:root"):
+        assert top.GetAttributeAtPath(p) and top.ListTimeSamplesForPath(p) == []
+    assert top.customLayerData["crowdweave:clipDirectory"] == dirs[0].name
+    st = Usd.Stage.Open(str(out))
+    clip = Usd.ClipsAPI(st.GetPrimAtPath("/World/Characters/late_one")).GetClips()["default"]
+    assert clip["primPath"] == "/World/Characters/late_one"
+    assert [tuple(v) for v in clip["active"]] == [(7.0, 0.0)]
+    assert clip["assetPaths"][0].path == f"./{dirs[0].name}/chunk_0000.usdc"
+    # the stage copied without its clip directory does not validate, naming the missing layers
+    lone = tmp_path / "copy" / "crowd.usdc"
+    lone.parent.mkdir()
+    lone.write_bytes(out.read_bytes())
+    missing = errors(validate_stage(lone))
+    assert any("chunk_0001.usdc" in i.message for i in missing), format_issues(missing)
+
+
+def test_bakes_are_byte_identical(crowd_tracks, default_graph, tmp_path):
+    """The same input gives the same bytes in every file (single layer and clips; the clip layers
+    from one in-process writer equal those from two worker processes)."""
+    for sub, kw in (("one", {}), ("clips", {"clips_per": 3, "workers": 1}), ("clips2", {"clips_per": 3, "workers": 2})):
+        _bake(crowd_tracks, default_graph, tmp_path / sub / "x" / "crowd.usda", **kw)
+        _bake(crowd_tracks, default_graph, tmp_path / sub / "y" / "crowd.usda", **kw)
+
+    def files(d):
+        return {str(p.relative_to(d)): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
+    for sub in ("one", "clips", "clips2"):
+        x, y = files(tmp_path / sub / "x"), files(tmp_path / sub / "y")
+        assert x == y and len(x) == (1 if sub == "one" else 4)
+    assert files(tmp_path / "clips" / "x") == files(tmp_path / "clips2" / "x")
+
+
+def test_rebake_replaces_the_clip_directory(crowd_tracks, default_graph, tmp_path):
+    out = tmp_path / "crowd.usdc"
+    _bake(crowd_tracks, default_graph, out, clips_per=2, workers=1)
+    first = {d.name for d in tmp_path.iterdir() if d.is_dir()}
+    changed = dict(crowd_tracks)
+    changed["c"] = Track(changed["c"].frames_a, changed["c"].frames_b, changed["c"].frames_t,
+                         changed["c"].root + [1.0, 0.0, 0.0], 0)
+    _bake(changed, default_graph, out, clips_per=2, workers=1)
+    second = {d.name for d in tmp_path.iterdir() if d.is_dir()}
+    assert len(first) == len(second) == 1 and first != second        # new content, new name; old removed
+    np.testing.assert_allclose(read_tracks(out)["c"].root, changed["c"].root, atol=1e-12)
+    _bake(changed, default_graph, out)                                # single layer: no clip directory left
+    assert sorted(os.listdir(tmp_path)) == ["crowd.usdc"]
+
+
+# -- the bake never leaves a half-written file ----------------------------------------------------
+def _listing(d):
+    return sorted(str(p.relative_to(d)) for p in d.rglob("*"))
+
+
+def test_failed_clip_layer_leaves_nothing_half_written(crowd_tracks, default_graph, tmp_path, monkeypatch):
+    """A clip layer export that dies midway (in-process writer) and a worker process that fails
+    (a track pointing past the library): no clip directory, no temporary, the earlier bake intact."""
+    out = tmp_path / "crowd.usdc"
+    _bake(crowd_tracks, default_graph, out, clips_per=2, workers=1)
+    before = {p: (tmp_path / p).read_bytes() for p in _listing(tmp_path) if (tmp_path / p).is_file()}
+    real_export = usd_clips._export
+    calls = []
+
+    def crash_on_second(layer, path):
+        calls.append(path)
+        if len(calls) == 2:
+            path.write_bytes(b"PXR-USDC half")
+            raise OSError("disk full")
+        return real_export(layer, path)
+    monkeypatch.setattr(usd_clips, "_export", crash_on_second)
+    changed = {k: Track(t.frames_a, t.frames_b, t.frames_t, t.root + [0.5, 0.0, 0.0], t.start_frame)
+               for k, t in crowd_tracks.items()}
+    with pytest.raises(OSError, match="disk full"):
+        _bake(changed, default_graph, out, clips_per=2, workers=1)
+    assert len(calls) == 2
+    monkeypatch.setattr(usd_clips, "_export", real_export)
+    bad = dict(changed)
+    bad["d"] = Track(bad["d"].frames_a + 10 ** 7, bad["d"].frames_b + 10 ** 7, bad["d"].frames_t, bad["d"].root, 0)
+    with pytest.raises(IndexError):
+        _bake(bad, default_graph, out, clips_per=2, workers=2)
+    after = {p: (tmp_path / p).read_bytes() for p in _listing(tmp_path) if (tmp_path / p).is_file()}
+    assert after == before
+    _assert_round_trip(out, crowd_tracks, default_graph)
+
+
+def test_failed_stage_save_keeps_the_previous_bake(crowd_tracks, default_graph, tmp_path, monkeypatch):
+    """The top stage is written to a temporary file and renamed: an export that dies midway leaves
+    the earlier stage (and the clip directory it refers to) in place and no temporary file."""
+    out = tmp_path / "crowd.usdc"
+    _bake(crowd_tracks, default_graph, out, clips_per=2, workers=1)
+    old = out.read_bytes()
+
+    def crash_midway(layer, path):
+        with open(path, "wb") as f:
+            f.write(b"PXR-USDC half")
+        raise usd_stage.StageError(path, "USD export failed: disk full")
+    monkeypatch.setattr(usd_stage, "_export_layer", crash_midway)
+    changed = {k: Track(t.frames_a, t.frames_b, t.frames_t, t.root + [0.5, 0.0, 0.0], t.start_frame)
+               for k, t in crowd_tracks.items()}
+    for kw in ({}, {"clips_per": 2, "workers": 1}):
+        with pytest.raises(usd_stage.StageError, match="disk full"):
+            _bake(changed, default_graph, out, **kw)
+        assert out.read_bytes() == old
+        assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    monkeypatch.undo()
+    _assert_round_trip(out, crowd_tracks, default_graph)   # still the first bake, clips and all
+
+
+def test_clips_need_an_output_path(crowd_tracks, default_graph):
+    with pytest.raises(ValueError, match="out_path"):
+        build_crowd_stage(crowd_tracks, default_graph, 30.0, clips_per=2)
+    with pytest.raises(ValueError, match="at least 1"):
+        build_crowd_stage(crowd_tracks, default_graph, 30.0, clips_per=0, out_path="x.usdc")
+
+
+def test_bake_command_writes_value_clips(tmp_path, capsys):
+    """``crowdweave bake ... --clips-per 1``: the checker reads the baked stage back through the
+    clips and reports exactly what it reports for the single-layer bake of the same scenario; a bad
+    --clips-per is a clear CLI error."""
+    from authoring.cli import main
+    d = tmp_path / "two"
+    d.mkdir()
+    (d / "scenario.toml").write_text(
+        'name = "two"\nduration = 4.0\nseed = 0\n'
+        '[[character]]\nname = "a"\nstart = { position = [-6.0, -6.0], pose = "stand" }\n'
+        '  [[character.goal]]\n  position = [-4.0, -3.0]\n')
+    one, clip = tmp_path / "one" / "two.usdc", tmp_path / "clips" / "two.usdc"
+    rc_one = main(["bake", str(d), "--out", str(one), "--report", str(tmp_path / "one.json"), "--quiet"])
+    rc_clip = main(["bake", str(d), "--out", str(clip), "--report", str(tmp_path / "clips.json"),
+                    "--clips-per", "1", "--workers", "1", "--quiet"])
+    assert rc_one == rc_clip
+    reports = [json.loads((tmp_path / f"{n}.json").read_text()) for n in ("one", "clips")]
+    assert reports[0]["summary"] == reports[1]["summary"] and reports[0]["summary"]["characters"] == 1
+    dirs = [p for p in clip.parent.iterdir() if p.is_dir()]
+    assert len(dirs) == 1 and sorted(os.listdir(dirs[0])) == ["chunk_0000.usdc", "manifest.usda"]
+    assert errors(validate_stage(clip)) == []
+    capsys.readouterr()
+    assert main(["bake", str(d), "--out", str(clip), "--clips-per", "0"]) == 2
+    assert "--clips-per must be at least 1" in capsys.readouterr().err
+
+
+def test_bake_errors_name_the_missing_file(tmp_path, capsys):
+    """A scenario whose world stage is missing, or a missing scenario: exit code 2, the error names
+    the file, and nothing is written."""
+    from authoring.cli import main
+    d = tmp_path / "s"
+    d.mkdir()
+    (d / "scenario.toml").write_text(
+        'name = "s"\nworld = "nowhere.usda"\nduration = 2.0\n'
+        '[[character]]\nname = "a"\nstart = { position = [0.0, 0.0], pose = "stand" }\n'
+        '  [[character.goal]]\n  position = [1.0, 0.0]\n')
+    out = tmp_path / "out.usdc"
+    assert main(["bake", str(d), "--out", str(out), "--quiet"]) == 2
+    assert f"{d / 'nowhere.usda'}: file not found" in capsys.readouterr().err
+    assert main(["bake", str(tmp_path / "nosuch"), "--out", str(out), "--quiet"]) == 2
+    assert "nosuch" in capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path)) == ["s"]
+
+
+def test_colliding_character_names_are_an_error(crowd_tracks, default_graph):
+    tracks = {"a b": crowd_tracks["c"], "a_b": crowd_tracks["d"]}
+    with pytest.raises(ValueError, match="'a b' and 'a_b' both map to the USD prim /World/Characters/a_b"):
+        build_crowd_stage(tracks, default_graph, 30.0)

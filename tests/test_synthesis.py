@@ -15,9 +15,9 @@ from runtime.crowd.tracks import Track
 
 
 def crossing_scenario(seed=0):
-    """Four characters whose straight paths cross near the origin inside one time window."""
+    """Three characters whose straight paths cross near the origin inside one time window."""
     chars = []
-    for k, (sx, sz, gx, gz) in enumerate([(-6, 0, 6, 1), (0, -6, 1, 6), (-5, -5, 5, 5), (6, -4, -6, 4)]):
+    for k, (sx, sz, gx, gz) in enumerate([(-6, 0, 6, 1), (0, -6, 1, 6), (-5, -5, 5, 5)]):
         chars.append({"name": f"c{k}", "start": {"position": [sx, sz], "heading": float(np.degrees(np.arctan2(gx - sx, gz - sz))),
                                                   "pose": "stand"},
                       "goal": [{"position": [gx, gz], "heading": 90.0 * k, "pose": "stand", "time": [13.0, 14.0]}]})
@@ -36,14 +36,14 @@ def test_crossing_paths_pass_the_checker(crossing, default_graph):
     s = rep["summary"]
     assert s["max_position_error_mm"] <= 1.0
     assert s["max_heading_error_deg"] <= 0.1
-    assert s["goals_in_window"] == 4 and s["poses_ok"] == 4
-    assert s["characters_within_eps"] == 4
+    assert s["goals_in_window"] == 3 and s["poses_ok"] == 3
+    assert s["characters_within_eps"] == 3
     assert s["character_overlap_pairs"] == 0
     assert s["passed"]
     # the characters did pass close to each other: the test is not trivially collision-free
     XZ = np.stack([c.track.root[:, :2] for c in res.characters], axis=1)
     d = np.linalg.norm(XZ[:, :, None] - XZ[:, None, :], axis=-1)
-    d[:, np.arange(4), np.arange(4)] = np.inf
+    d[:, np.arange(3), np.arange(3)] = np.inf
     assert d.min() < 3.0
 
 

@@ -3,38 +3,61 @@
 Layout::
 
     /World                          Xform (defaultPrim)
+    /World/Environment              reference to the world stage (when given)
     /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
         crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
         crowdweave:frameT           float[]    crowdweave:startFrame (pose = slerp(A, B, T))
     /World/Characters/<name>/Skel       Skeleton (SkelBindingAPI, skel:animationSource -> Anim)
     /World/Characters/<name>/Skel/Anim  SkelAnimation (root joint translation = world position)
+    /World/Characters/<name>/Body       reference to /Prototypes/Body, the skinned capsule body
+    /Prototypes/Body                    class: the body mesh every character shares
 
 The stage's customData holds the scenario name and the library path, so a checker can read
 a bake back (:func:`read_tracks`) without the planner. Poses come from the runtime
 (:func:`runtime.crowd.tracks.evaluate_poses`); this module only moves arrays into USD.
+
+Speed: every character is authored at the Sdf level (prim and attribute specs, one
+``SetTimeSample`` per animated attribute per frame, values converted from numpy arrays built
+for many characters at once) inside one ``Sdf.ChangeBlock``; the per-call cost of
+``SetTimeSample`` from Python is then what is left. For very large crowds
+``build_crowd_stage(..., clips_per=N, out_path=...)`` moves the time samples into value-clip
+layers of N characters each, written by parallel worker processes (:mod:`usd_io.clips`); the
+top stage then holds the prims, the frame arrays and the clip metadata.
 """
 from __future__ import annotations
 
+import os
+from collections import deque
+from dataclasses import dataclass
+
 import numpy as np
-from pxr import Sdf, UsdGeom, Vt
+from pxr import Gf, Sdf, UsdGeom, Vt
 
 from runtime.crowd.tracks import Track, evaluate_poses
+from runtime.motion import quat
+from runtime.motion.fk import forward_kinematics
 
-from .skel import bind_animation, bind_skeleton, define_skel_root, define_skeleton, joint_paths, write_animation
+from .skel import _translation_matrices, joint_paths
 from .stage import check_usd_path, new_stage, open_stage, save_stage, set_default_prim, valid_prim_name
 
-__all__ = ["build_crowd_stage", "write_crowd_stage", "read_tracks", "CHARACTERS"]
+__all__ = ["build_crowd_stage", "write_crowd_stage", "save_crowd_stage", "read_tracks", "write_props",
+           "character_path", "CHARACTERS"]
 
 CHARACTERS = "/World/Characters"
-
-
 BODY_PROTOTYPE = "/Prototypes/Body"
+POSE_BATCH_FRAMES = 3000       # frames of poses evaluated per vectorized pass (small batches stay in cache)
 
 
-def _define_body_prototype(stage, skeleton, paths):
+def character_path(name: str) -> Sdf.Path:
+    """The SkelRoot path of the character called ``name``."""
+    return Sdf.Path(CHARACTERS).AppendChild(valid_prim_name(name, "Character"))
+
+
+def _define_body_prototype(stage, skeleton):
     """The skinned capsule-limb body every character references (a class prim: not drawn)."""
-    from pxr import Gf, UsdSkel
+    from pxr import UsdSkel
+
     from runtime.motion.body import body_mesh
     pts, counts, idx, joints = body_mesh(skeleton)
     stage.CreateClassPrim("/Prototypes")
@@ -52,67 +75,233 @@ def _define_body_prototype(stage, skeleton, paths):
     return mesh
 
 
+# -- Sdf-level authoring ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SkelValues:
+    """The Vt values every character of one skeleton shares (computed once per bake)."""
+    joints: Vt.TokenArray
+    names: Vt.TokenArray
+    rest: Vt.Matrix4dArray
+    bind: Vt.Matrix4dArray
+    scales: Vt.Vec3hArray
+    offsets: np.ndarray      # (J, 3) rest offsets: every non-root joint translation
+
+    @classmethod
+    def of(cls, skeleton) -> "SkelValues":
+        J = skeleton.num_joints
+        rest_world = forward_kinematics(skeleton, skeleton.offsets[0], quat.identity((J,)))[1]
+        return cls(Vt.TokenArray(joint_paths(skeleton)), Vt.TokenArray(list(skeleton.names)),
+                   _translation_matrices(skeleton.offsets), _translation_matrices(rest_world),
+                   Vt.Vec3hArray.FromNumpy(np.ones((J, 3), np.float16)),
+                   np.asarray(skeleton.offsets, dtype=np.float64))
+
+
+_T = Sdf.ValueTypeNames
+_SKEL_API = Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"])
+
+# the time-sampled attributes of a character: (prim path relative to the SkelRoot, attribute, type, custom)
+ANIMATED = (("Skel/Anim", "translations", _T.Float3Array, False),
+            ("Skel/Anim", "rotations", _T.QuatfArray, False),
+            ("", "crowdweave:root", _T.Double3, True))
+
+
+def _prim(layer, path, type_name: str | None, specifier=Sdf.SpecifierDef, api: bool = False):
+    spec = Sdf.CreatePrimInLayer(layer, path)
+    spec.specifier = specifier
+    if type_name:
+        spec.typeName = type_name
+    if api:
+        spec.SetInfo("apiSchemas", _SKEL_API)
+    return spec
+
+
+def _attr(prim_spec, name, type_name, value=None, *, uniform=False, custom=False):
+    a = Sdf.AttributeSpec(prim_spec, name, type_name,
+                          Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying, custom)
+    if value is not None:
+        a.default = value
+    return a
+
+
+def _rel(prim_spec, name, target: Sdf.Path):
+    r = Sdf.RelationshipSpec(prim_spec, name, False)
+    r.targetPathList.explicitItems = [target]
+
+
+def define_animated_specs(layer, root_path: Sdf.Path, specifier=Sdf.SpecifierOver) -> list:
+    """Only the attribute specs that carry time samples (translations, rotations,
+    crowdweave:root), on prims of ``specifier`` (``over`` for a value-clip layer or a manifest)."""
+    out = []
+    for rel, name, type_name, custom in ANIMATED:
+        prim_path = root_path.AppendPath(Sdf.Path(rel)) if rel else root_path
+        spec = layer.GetPrimAtPath(prim_path) or _prim(layer, prim_path, None, specifier)
+        out.append(_attr(spec, name, type_name, custom=custom))
+    return out
+
+
+def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Track, body: bool) -> list:
+    """Author one character's prims (SkelRoot, Skeleton, SkelAnimation, Body reference) and its
+    crowdweave attributes into ``layer`` through Sdf; the animated attributes are declared
+    without values. Returns their AttributeSpecs (translations, rotations, crowdweave:root)."""
+    root = _prim(layer, root_path, "SkelRoot", api=True)
+    skel_path = root_path.AppendChild("Skel")
+    anim_path = skel_path.AppendChild("Anim")
+    _rel(root, "skel:skeleton", skel_path)
+    _attr(root, "crowdweave:startFrame", _T.Int, int(track.start_frame), custom=True)
+    _attr(root, "crowdweave:frameA", _T.IntArray, Vt.IntArray.FromNumpy(np.asarray(track.frames_a, np.int32)), custom=True)
+    _attr(root, "crowdweave:frameB", _T.IntArray, Vt.IntArray.FromNumpy(np.asarray(track.frames_b, np.int32)), custom=True)
+    _attr(root, "crowdweave:frameT", _T.FloatArray, Vt.FloatArray.FromNumpy(np.asarray(track.frames_t, np.float32)),
+          custom=True)
+    skel = _prim(layer, skel_path, "Skeleton", api=True)
+    _attr(skel, "joints", _T.TokenArray, sv.joints, uniform=True)
+    _attr(skel, "jointNames", _T.TokenArray, sv.names, uniform=True)
+    _attr(skel, "restTransforms", _T.Matrix4dArray, sv.rest, uniform=True)
+    _attr(skel, "bindTransforms", _T.Matrix4dArray, sv.bind, uniform=True)
+    _rel(skel, "skel:animationSource", anim_path)
+    anim = _prim(layer, anim_path, "SkelAnimation")
+    _attr(anim, "joints", _T.TokenArray, sv.joints, uniform=True)
+    _attr(anim, "scales", _T.Half3Array, sv.scales)
+    specs = [_attr(anim, "translations", _T.Float3Array), _attr(anim, "rotations", _T.QuatfArray),
+             _attr(root, "crowdweave:root", _T.Double3, custom=True)]
+    if body:
+        b = _prim(layer, root_path.AppendChild("Body"), None)
+        b.referenceList.Prepend(Sdf.Reference(primPath=BODY_PROTOTYPE))
+    return specs
+
+
+def pose_arrays(graph, tracks: list[Track], sv: SkelValues):
+    """SkelAnimation arrays of several tracks at once, concatenated over their frames:
+    translations (M, J, 3) float32 (root: world position), rotations (M, J, 4) float32 in the
+    x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg)."""
+    fa = np.concatenate([t.frames_a for t in tracks])
+    fb = np.concatenate([t.frames_b for t in tracks])
+    ft = np.concatenate([t.frames_t for t in tracks])
+    root = np.concatenate([t.root for t in tracks]).astype(np.float64)
+    pos, rot = evaluate_poses(graph, fa, fb, ft, root)
+    trans = np.empty(pos.shape[:1] + sv.offsets.shape, np.float32)
+    trans[:] = sv.offsets
+    trans[:, 0] = pos
+    q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
+    rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
+    return trans, q, rootv
+
+
+def author_samples(specs: list, times: list[float], trans, quats, rootv) -> None:
+    """One ``SetTimeSample`` per attribute spec (translations, rotations, crowdweave:root) per
+    frame; call inside an ``Sdf.ChangeBlock``."""
+    st, sr, sc = specs
+    # map() drives the calls from C: no Python loop body per sample
+    deque(map(st.SetTimeSample, times, map(Vt.Vec3fArray.FromNumpy, trans)), 0)
+    deque(map(sr.SetTimeSample, times, map(Vt.QuatfArray.FromNumpy, quats)), 0)
+    deque(map(sc.SetTimeSample, times, Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(rootv))), 0)
+
+
+def track_times(track: Track) -> list[float]:
+    return (float(track.start_frame) + np.arange(len(track), dtype=np.float64)).tolist()
+
+
+def _batches(items, frames: int):
+    """Consecutive groups of (name, track) with about ``frames`` frames each."""
+    batch, n = [], 0
+    for it in items:
+        batch.append(it)
+        n += len(it[1])
+        if n >= frames:
+            yield batch
+            batch, n = [], 0
+    if batch:
+        yield batch
+
+
+# -- the stage ------------------------------------------------------------------------------------
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
-                      num_frames: int | None = None, world_path=None, out_path=None, body: bool = True):
+                      num_frames: int | None = None, world_path=None, out_path=None, body: bool = True,
+                      clips_per: int | None = None, workers: int | None = None):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
     SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
     one prototype mesh). ``world_path`` (a Y-up, metre world stage) is referenced as
-    ``/World/Environment`` (by a path relative to ``out_path`` when given)."""
+    ``/World/Environment`` (by a path relative to ``out_path`` when given).
+
+    ``clips_per=N`` (requires ``out_path``) writes the time samples (joint translations and
+    rotations, ``crowdweave:root``) as value clips, one layer per N characters, in ``workers``
+    parallel processes (default 2), into a directory beside ``out_path`` that is assembled under a
+    temporary name and renamed into place (:func:`usd_io.clips.write_clip_layers`); the returned
+    stage refers to it by a relative path. Save the stage to ``out_path`` (:func:`save_crowd_stage`
+    also removes clip directories of earlier bakes to the same path)."""
     n = max([len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
+    if clips_per is not None:
+        if out_path is None:
+            raise ValueError("clips_per needs out_path: the clip layers are written beside the stage")
+        if int(clips_per) < 1:
+            raise ValueError(f"clips_per must be at least 1, got {clips_per}")
     if stage is None:
         stage = new_stage(fps, 0, n - 1)
     world = UsdGeom.Xform.Define(stage, "/World")
     set_default_prim(stage, world.GetPrim())
     UsdGeom.Scope.Define(stage, CHARACTERS)
     sk = graph.skeleton
-    paths = joint_paths(sk)
-    layer = stage.GetEditTarget().GetLayer()
     if world_path is not None:
-        import os
         ref = str(world_path)
         if out_path is not None:
             ref = os.path.relpath(os.path.abspath(world_path), os.path.dirname(os.path.abspath(out_path)))
         stage.DefinePrim("/World/Environment").GetReferences().AddReference(ref.replace(os.sep, "/"))
     if body and tracks:
-        _define_body_prototype(stage, sk, paths)
-    for name, tr in tracks.items():
-        root_path = Sdf.Path(CHARACTERS).AppendChild(valid_prim_name(name, "Character"))
-        root = define_skel_root(stage, root_path)
-        skel = define_skeleton(stage, root_path.AppendChild("Skel"), sk, paths=paths)
-        pos, rot = evaluate_poses(graph, tr.frames_a, tr.frames_b, tr.frames_t, tr.root)
-        trans = np.empty(pos.shape[:1] + (sk.num_joints, 3))
-        trans[:] = sk.offsets
-        trans[:, 0] = pos
-        times = float(tr.start_frame) + np.arange(len(tr), dtype=np.float64)
-        anim = write_animation(stage, skel.GetPath().AppendChild("Anim"), sk, translations=trans, rotations=rot,
-                               time_codes=times, paths=paths)
-        bind_skeleton(root, skel)
-        bind_animation(skel, anim)
-        if body:
-            stage.DefinePrim(root_path.AppendChild("Body")).GetReferences().AddInternalReference(BODY_PROTOTYPE)
-        prim = root.GetPrim()
-        a_root = prim.CreateAttribute("crowdweave:root", Sdf.ValueTypeNames.Double3)
-        prim.CreateAttribute("crowdweave:startFrame", Sdf.ValueTypeNames.Int).Set(int(tr.start_frame))
-        prim.CreateAttribute("crowdweave:frameA", Sdf.ValueTypeNames.IntArray).Set(
-            Vt.IntArray.FromNumpy(np.asarray(tr.frames_a, dtype=np.int32)))
-        prim.CreateAttribute("crowdweave:frameB", Sdf.ValueTypeNames.IntArray).Set(
-            Vt.IntArray.FromNumpy(np.asarray(tr.frames_b, dtype=np.int32)))
-        prim.CreateAttribute("crowdweave:frameT", Sdf.ValueTypeNames.FloatArray).Set(
-            Vt.FloatArray.FromNumpy(np.asarray(tr.frames_t, dtype=np.float32)))
-        rootv = np.column_stack([tr.root[:, 0], tr.root[:, 1], np.degrees(tr.root[:, 2])]).astype(np.float64)
-        sp = a_root.GetPath()
+        _define_body_prototype(stage, sk)
+    sv = SkelValues.of(sk)
+    target = stage.GetEditTarget()
+    layer = target.GetLayer()
+    items = [(character_path(name), tr) for name, tr in tracks.items()]
+    seen = {}
+    for name, (p, _) in zip(tracks, items):
+        if p in seen:
+            raise ValueError(f"characters {seen[p]!r} and {name!r} both map to the USD prim {p}")
+        seen[p] = name
+
+    if clips_per is None:
         with Sdf.ChangeBlock():
-            for t, v in zip(times.tolist(), rootv.tolist()):
-                layer.SetTimeSample(sp, t, tuple(v))
+            for batch in _batches(items, POSE_BATCH_FRAMES):
+                trans, quats, rootv = pose_arrays(graph, [tr for _, tr in batch], sv)
+                k = 0
+                for path, tr in batch:
+                    specs = define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body)
+                    f = len(tr)
+                    author_samples(specs, track_times(tr), trans[k:k + f], quats[k:k + f], rootv[k:k + f])
+                    k += f
+    else:
+        from .clips import write_clip_layers
+        with write_clip_layers(out_path, items, graph, fps, int(clips_per), workers) as clips:
+            # the workers write the clip layers while this process authors the prims
+            with Sdf.ChangeBlock():
+                for path, tr in items:
+                    define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body)
+            clips.wait()
+            with Sdf.ChangeBlock():
+                for path, tr in items:
+                    clips.author_clip_set(layer.GetPrimAtPath(target.MapToSpecPath(path)), path, tr)
+    data = {}
     if metadata:
-        stage.GetRootLayer().customLayerData = {"crowdweave": dict(metadata)}
+        data["crowdweave"] = dict(metadata)
+    if clips_per is not None:
+        data["crowdweave:clipDirectory"] = clips.dir_name
+    if data:
+        stage.GetRootLayer().customLayerData = data
     return stage
 
 
-def write_crowd_stage(path, tracks: dict, graph, fps: float, *, metadata: dict | None = None):
+def save_crowd_stage(stage, path):
+    """Save a baked stage atomically (:func:`usd_io.stage.save_stage`); afterwards remove value-clip
+    directories that earlier bakes to the same path left and this stage no longer uses."""
+    from .clips import remove_unused_clip_dirs
+    p = save_stage(stage, path)
+    remove_unused_clip_dirs(p, keep=stage.GetRootLayer().customLayerData.get("crowdweave:clipDirectory", ""))
+    return p
+
+
+def write_crowd_stage(path, tracks: dict, graph, fps: float, *, metadata: dict | None = None,
+                      clips_per: int | None = None, workers: int | None = None):
     p = check_usd_path(path)
-    stage = build_crowd_stage(tracks, graph, fps, metadata=metadata)
-    save_stage(stage, p)
+    stage = build_crowd_stage(tracks, graph, fps, metadata=metadata, out_path=p, clips_per=clips_per, workers=workers)
+    save_crowd_stage(stage, p)
     return p
 
 

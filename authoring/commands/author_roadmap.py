@@ -6,11 +6,13 @@ import sys
 import time
 from pathlib import Path
 
+from authoring.roadmap import WALK_RADIUS
+
 
 def configure(p):
     p.add_argument("world", help="world stage (.usda/.usdc/.usd)")
     p.add_argument("--out", required=True, help="output pack (.cwpack)")
-    p.add_argument("--radius", type=float, default=0.35, help="character radius the obstacles are grown by, m (default 0.35)")
+    p.add_argument("--radius", type=float, default=WALK_RADIUS, help=f"character radius the obstacles are grown by, m (default {WALK_RADIUS}: a walking character's bounding cylinder)")
     p.add_argument("--connect", type=float, default=3.0, help="largest edge length, m (default 3)")
     p.add_argument("--samples", type=int, default=None, help="number of nodes (default: about one per 2 m^2 of free ground)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

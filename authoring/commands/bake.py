@@ -1,5 +1,6 @@
-"""``crowdweave bake SAMPLE --out out.usdc [--report report.json]``: plan a scenario, write
-the baked crowd to USD, read it back and print the independent checker's summary."""
+"""``crowdweave bake SAMPLE --out out.usdc [--report report.json] [--clips-per N]``: plan a
+scenario, write the baked crowd to USD (optionally as value clips, one layer per N characters),
+read it back and print the independent checker's summary."""
 from __future__ import annotations
 
 import json
@@ -14,6 +15,11 @@ def configure(p):
     p.add_argument("--report", default=None, help="write the checker's full report as JSON")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--clips-per", type=int, default=None, metavar="N",
+                   help="write the animation as USD value clips, one layer per N characters, in a directory "
+                        "beside --out (for very large crowds)")
+    p.add_argument("--workers", type=int, default=None, metavar="W",
+                   help="processes writing value-clip layers (default 2)")
 
 
 def load_sample(sample, log=print, progress=True):
@@ -38,7 +44,7 @@ def load_sample(sample, log=print, progress=True):
         world = base / head["world"]
         env = read_world(world)
         if len(env.polygons) or len(env.circles):
-            roadmap = load_or_build_roadmap(world, cache_dir() / "roadmaps", radius=0.35, seed=0, env=env)
+            roadmap = load_or_build_roadmap(world, cache_dir() / "roadmaps", seed=0, env=env)
     lib_name = head.get("library", "default")
     ensure_library(lib_name, base, log=log, progress=progress)
     graph = load_library(lib_name, base)
@@ -100,12 +106,16 @@ def run(args) -> int:
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scenario import ScenarioError
     from runtime.crowd.scheduler import plan_scenario
-    from usd_io.crowd import read_tracks, write_crowd_stage
+    from usd_io.crowd import read_tracks
 
     quiet = args.quiet or not sys.stderr.isatty()
     out = Path(args.out)
     if out.suffix not in (".usda", ".usdc", ".usd"):
         raise CLIError(f"{out}: output must end in .usdc, .usda or .usd")
+    if args.clips_per is not None and args.clips_per < 1:
+        raise CLIError(f"--clips-per must be at least 1, got {args.clips_per}")
+    if args.workers is not None and args.workers < 1:
+        raise CLIError(f"--workers must be at least 1, got {args.workers}")
     try:
         sc, graph, env, roadmap = load_sample(args.sample, progress=not quiet)
     except (ScenarioError, AssetError, ValueError, FileNotFoundError) as e:
@@ -122,8 +132,7 @@ def run(args) -> int:
     t_plan = time.perf_counter() - t0
     tracks = {c.name: c.track for c in result.characters}
     flock_report = bake_flocks(sc, env, result.fps, result.num_frames) if sc.flocks else None
-    from usd_io.crowd import build_crowd_stage
-    from usd_io.stage import save_stage
+    from usd_io.crowd import build_crowd_stage, save_crowd_stage
     world_path = None
     if sc.world:
         from usd_io.world import read_world_units
@@ -131,7 +140,7 @@ def run(args) -> int:
         if read_world_units(world_path) != (1.0, "Y"):
             world_path = None          # a referenced stage must share the bake's metres / Y up
     stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
-                              out_path=out,
+                              out_path=out, clips_per=args.clips_per, workers=args.workers,
                               metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
     from runtime.crowd.tracks import box_trajectories
     from usd_io.crowd import write_props
@@ -140,7 +149,7 @@ def run(args) -> int:
         from usd_io.flock import write_flock_instancer
         for name, (pos, ori) in flock_report.pop("_arrays").items():
             write_flock_instancer(stage, name, pos, ori)
-    save_stage(stage, out)
+    save_crowd_stage(stage, out)
     t_write = time.perf_counter() - t0 - t_plan
     # the checker reads the baked stage back, not the planner's objects
     report = check_crowd(sc, read_tracks(out), graph, env, result.fps) if sc.characters else \

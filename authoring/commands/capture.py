@@ -3,6 +3,10 @@
 Writes ``OUT/take_000.bvh``, ``take_000.labels.json``, ... and ``OUT/session.json`` (see
 :mod:`authoring.procedural.session`), then prints a short summary and the quality figures
 of :func:`authoring.capture_quality.take_quality`.
+
+With ``--takes``: two- and three-person takes on a shared clock (:mod:`authoring.takes`,
+:mod:`authoring.procedural.interactions`), one directory per take; ``--duet A.bvh B.bvh``
+imports a recorded two-person take (the CMU salsa duet).
 """
 from __future__ import annotations
 
@@ -19,10 +23,23 @@ def configure(parser):
                         help="length of one take in minutes (default 2)")
     parser.add_argument("--no-check", action="store_true", help="skip the quality check at the end")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    g = parser.add_argument_group("multi-character takes (paper 003)")
+    g.add_argument("--takes", action="store_true",
+                   help="write two- and three-person takes on a shared clock (OUT/<kind>_NNN/ with one BVH "
+                        "per performer + take.json) instead of single-performer takes")
+    g.add_argument("--kinds", default=None,
+                   help="comma-separated scene kinds for --takes (default: all; see authoring.procedural.interactions)")
+    g.add_argument("--repeat", type=int, default=1, help="takes per kind for --takes (default 1)")
+    g.add_argument("--duet", nargs=2, metavar=("A.bvh", "B.bvh"), default=None,
+                   help="also import two BVH files recorded on one clock (e.g. the CMU salsa duet "
+                        "60_10 + 61_10) as the two-person take OUT/duet/")
 
 
 def run(args) -> int:
     from authoring.cli import CLIError
+
+    if getattr(args, "takes", False) or getattr(args, "duet", None):
+        return _run_takes(args)
 
     if not (args.minutes > 0):
         raise CLIError(f"--minutes must be positive, not {args.minutes}")
@@ -63,4 +80,66 @@ def run(args) -> int:
         from authoring.capture_quality import format_quality, take_quality
 
         print(format_quality(take_quality(out)))
+    return 0
+
+
+def _run_takes(args) -> int:
+    """``--takes`` / ``--duet``: multi-character takes (authoring.takes)."""
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from authoring.bvh import BVHError
+    from authoring.cli import CLIError
+    from authoring.procedural.interactions import SCENES
+    from authoring.takes import DEFAULT_KINDS, TakeError, import_cmu_duet, write_takes
+
+    if not (0 < args.fps <= 1000):
+        raise CLIError(f"--fps must be in (0, 1000], not {args.fps}")
+    kinds = DEFAULT_KINDS if args.kinds is None else tuple(k.strip() for k in args.kinds.split(",") if k.strip())
+    bad = [k for k in kinds if k not in SCENES]
+    if bad:
+        raise CLIError(f"unknown take kind(s) {', '.join(bad)}; known: {', '.join(SCENES)}")
+    if args.repeat < 1:
+        raise CLIError(f"--repeat must be at least 1, not {args.repeat}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CLIError(f"{out}: exists and is not a directory")
+    t0 = time.perf_counter()
+    rows = []
+    if args.takes:
+        n = len(kinds) * args.repeat
+        with tqdm(total=n, unit="take", desc="takes", disable=args.quiet or not sys.stderr.isatty()) as bar:
+            try:
+                manifest = write_takes(out, args.seed, kinds, args.repeat, args.fps, progress=bar.update)
+            except OSError as e:
+                raise CLIError(f"{out}: cannot write ({e.strerror or e})") from None
+        rows = manifest["takes"]
+    if args.duet:
+        try:
+            tk = import_cmu_duet(args.duet[0], args.duet[1], fps=args.fps, name="duet")
+        except (BVHError, TakeError) as e:
+            raise CLIError(str(e)) from None
+        except OSError as e:
+            raise CLIError(f"{e.filename}: cannot read ({e.strerror})") from None
+        tk.save(out / "duet")
+        rows.append({"name": "duet", "kind": "duet", "people": tk.people, "frames": tk.num_frames,
+                     "seconds": round(tk.num_frames / args.fps, 4), "events": []})
+    elapsed = time.perf_counter() - t0
+    frames = sum(r["frames"] for r in rows)
+    print(f"wrote {len(rows)} takes to {out}: {frames} frames ({frames / args.fps:.1f} s per performer) at "
+          f"{args.fps:g} fps, seed {args.seed}, in {elapsed:.1f} s")
+    if not args.no_check:
+        from authoring.capture_quality import take_quality
+
+        print("  take                       people  seconds  foot sliding in contact mean / p95 (cm/s)  events")
+    for r in rows:
+        ev = ", ".join(f"{e['label']}{tuple(e['people'])}@{e['start']}-{e['end']}" for e in r["events"]) or "-"
+        q = ""
+        if not args.no_check:
+            s = take_quality(out / r["name"])["summary"]
+            q = f"{100 * s['foot_contact_mean_speed_m_s']:6.2f} / {100 * s['foot_contact_p95_speed_m_s']:6.2f}"
+            if s["hyperextended_frames"]:
+                q += f" ({s['hyperextended_frames']} hyperextended knee frames)"
+        print(f"  {r['name']:26s} {len(r['people']):6d}  {r['seconds']:7.1f}  {q:42s}  {ev}")
     return 0

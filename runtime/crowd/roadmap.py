@@ -30,6 +30,7 @@ PACK_KIND = "roadmap"
 PACK_VERSION = 1
 # Extra nodes tried (nearest first) when an end point sees no node within connect_distance.
 FALLBACK_NEIGHBOURS = 64
+SHORTCUT_EXTRA = 0.3      # m: straight and string-pulled segments keep radius + this clearance
 
 
 class RoadmapError(ValueError):
@@ -175,13 +176,15 @@ class Roadmap:
         """Way points ``(n, 2)`` from ``start`` to ``goal`` (both (2,) x, z), first and last
         exactly the given points.
 
-        ``[start, goal]`` when the straight segment is clear; otherwise start and goal join
+        ``[start, goal]`` when the straight segment is clear (by ``radius + SHORTCUT_EXTRA``,
+        or the end points' own clearance if smaller); otherwise start and goal join
         their visible roadmap neighbours (within ``connect_distance``; if none is visible there,
         the nearest ``FALLBACK_NEIGHBOURS`` nodes are tried) and Dijkstra gives the shortest
         path. Segments touching an end point closer than ``radius`` to an obstacle use that end
         point's clearance instead of ``radius``; every other segment keeps ``radius``. With
-        ``shortcut`` (default) way points are dropped greedily while the skipping segment stays
-        clear (the path only gets shorter and keeps the same clearances).
+        ``shortcut`` (default) way points are dropped greedily while the skipping segment keeps
+        ``radius + SHORTCUT_EXTRA`` (the path only gets shorter and never grazes a corner closer
+        than the roadmap's own segments do).
 
         Raises RoadmapError naming the start and goal if an end point is inside an obstacle,
         the roadmap was built for other obstacles, or no path exists.
@@ -193,7 +196,7 @@ class Roadmap:
                                f"{self.env_fingerprint[:12]}... != {env.fingerprint()[:12]}...); rebuild it")
         rs = self._end_radius(env, s, "start")
         rg = self._end_radius(env, g, "goal")
-        if env.segment_clear(s, g, min(rs, rg)):
+        if env.segment_clear(s, g, min(rs, rg, self.radius + SHORTCUT_EXTRA)):
             return np.stack([s, g])
         ns, ds = self._visible(env, s, rs)
         ng, dg = self._visible(env, g, rg)
@@ -238,7 +241,11 @@ class Roadmap:
             if i == 0:
                 r = np.minimum(r, rs)
             r[j == n - 1] = np.minimum(r[j == n - 1], rg)
-            ok = env.segment_clear(np.broadcast_to(pts[i], (len(j), 2)), pts[j], r)
+            # string pulling keeps SHORTCUT_EXTRA more clearance than the roadmap's radius, so
+            # that a pulled path does not graze door jambs and corners a stride-sized motion
+            # cannot follow exactly; where it cannot, the roadmap's own segments are kept
+            ok = env.segment_clear(np.broadcast_to(pts[i], (len(j), 2)), pts[j],
+                                   np.where(r < self.radius, r, r + SHORTCUT_EXTRA))
             ok[0] = True  # the path's own next segment (already known to be clear)
             i = int(j[np.flatnonzero(ok)[-1]])
             keep.append(i)

@@ -106,7 +106,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     for k in range(passes):
         order = planning_order(sc, first=failed_first)
         results = _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order,
-                             progress if k == 0 else None, log)
+                             progress if k == 0 else None, log, k)
         failed = [ci for ci in order if results[ci].warnings]
         if best is None or len(failed) < best[0]:
             best = (len(failed), order, results)
@@ -121,14 +121,14 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total)
 
 
-def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order, progress, log):
+def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order, progress, log, k=0):
     """One pass over the characters in ``order``; each has its own random stream (seeded by
-    the scenario seed and its index), so its plan depends on the order only through the
-    characters planned before it."""
+    the scenario seed, its index and the pass number ``k``), so its plan depends on the order
+    only through the characters planned before it, and a later pass searches afresh."""
     index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05))
     results: dict[int, CharacterResult] = {}
     for ci in order:
-        rng = np.random.default_rng([int(sc.seed), int(ci)])
+        rng = np.random.default_rng([int(sc.seed), int(ci), int(k)])
         c = sc.characters[ci]
         t0 = time.perf_counter()
         owner = ci

@@ -87,6 +87,12 @@ class SynthesisParams:
     sweep_pairs: int = 2000        # two-clip combinations scored per pair sweep (a random subset)
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
     seed_margin: float = 0.0       # extra clearance (m) from planned characters in the seeds
+    reach_radius: float = 0.75     # a way point counts as reached within this distance (m)
+    max_sidesteps: int = 6         # non-improving clear edges a seed may take per way point
+    split_resample: bool = True    # resample the two spliced parts separately (junction on a frame)
+    backward_idle: bool = False    # backward seeds may idle at the goal to spend surplus time (the World allows it)
+    carrot: float = 1.5            # seeds aim this far (m) along the way-point path ahead of themselves
+    carrot_final: float = 3.0      # ... until the path's end is this close (m): then at the end itself
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     fps: float = 30.0
 
@@ -355,7 +361,6 @@ class SegmentPlanner:
                               src, dst, disp, np.ones(g.num_edges, bool))
         wi = 1 if len(waypoints) > 1 else 0
         best = None
-        last = len(waypoints) - 1
         tgt = None if target_nodes is None else np.asarray(target_nodes)
 
         approach = self.p.approach_radius
@@ -367,8 +372,8 @@ class SegmentPlanner:
             # position error, plus how far the character faces away from the way point (so
             # turning on the spot counts as progress); near the goal (within the approach
             # radius) the goal orientation counts instead (1 cm = 1 deg)
-            dx = waypoints[wi, 0] - cfgs[..., 0]
-            dz = waypoints[wi, 1] - cfgs[..., 1]
+            dx = tp[0] - cfgs[..., 0]
+            dz = tp[1] - cfgs[..., 1]
             e = np.hypot(dx, dz)
             bearing = np.arctan2(dx, dz)
             facing = face_w * np.abs(wrap_angle(cfgs[..., 2] + face_off - bearing)) * np.minimum(e, 1.0)
@@ -378,11 +383,48 @@ class SegmentPlanner:
             return e + facing
 
         seg_len = np.hypot(*np.diff(waypoints, axis=0).T) if len(waypoints) > 1 else np.zeros(0)
+        cum = np.concatenate([[0.0], np.cumsum(seg_len)])
+        total = float(cum[-1])
+        s_proj = 0.0
+        ahead = self.p.carrot
+        tp = waypoints[-1]
+
+        def place_carrot():
+            """The target: the point ``ahead`` metres along the way-point polyline beyond the
+            character's projection onto it (the projection only moves forward, and only
+            within 3 m of the last one, so a path that doubles back is not short-cut). Returns
+            whether the target is the last way point."""
+            nonlocal s_proj, tp, wi
+            if len(waypoints) <= 2:         # a straight path: aim at its end, as the paper does
+                tp, wi = waypoints[-1], len(waypoints) - 1
+                return True
+            a = waypoints[:-1]
+            ab = waypoints[1:] - a
+            t = np.clip(((cfg[:2] - a) * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-12), 0.0, 1.0)
+            d = np.hypot(*(a + t[:, None] * ab - cfg[None, :2]).T)
+            s_all = cum[:-1] + t * seg_len
+            d = np.where((s_all >= s_proj - 1e-9) & (cum[:-1] <= s_proj + 3.0), d, np.inf)
+            k = int(np.argmin(d))
+            if np.isfinite(d[k]):
+                s_proj = max(s_proj, float(s_all[k]))
+            sc = min(s_proj + ahead, total)
+            if sc >= total - 1e-9 or total - s_proj < self.p.carrot_final:
+                tp, wi = waypoints[-1], len(waypoints) - 1
+                return True
+            j = int(np.clip(np.searchsorted(cum, sc, side="right") - 1, 0, len(seg_len) - 1))
+            u = (sc - cum[j]) / max(seg_len[j], 1e-12)
+            tp = waypoints[j] + u * (waypoints[j + 1] - waypoints[j])
+            wi = j + 1
+            return False
+
         elapsed = 0.0
         waits = 0
+        sidesteps = 0
+        clear1 = lambda e: bool(self._clear(np.array([e]), cfg[None], np.array([frame]) if not reverse
+                                            else frame - (lib.nframes[[e]] - 1), moving=not reverse)[0])
         table = lib.lookahead(reverse, travel)
         while len(edges) < self.p.max_seed_edges:
-            final = wi >= last
+            final = place_carrot()
             out, comb, dur2 = table[node]
             if len(out) == 0:
                 break
@@ -400,20 +442,20 @@ class SegmentPlanner:
             end_xz = np.where(use2[:, None], ends2[rows, k2, :2], ends[:, :2])
             cur = float(err(cfg, final))
             if time_budget is not None:
-                remaining = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1])) + float(seg_len[wi:].sum())
+                remaining = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1])) + (0.0 if final else total - min(s_proj + ahead, total))
                 left = time_budget - elapsed
                 loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
                 # surplus time is spent idling at the start of the segment, where the character
                 # already stands: a forward seed idles first; a backward seed (which runs back
                 # from the goal) never idles, or the motion would stand at the goal early, in
                 # the way of characters passing before the window opens
-                if not reverse and len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
+                if (not reverse or self.p.backward_idle) and len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
                     advance(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
                     elapsed += float(lib.dur[edges[-1]])
                     continue
                 want = remaining / max(left, 0.3)
-                pos_now = float(np.hypot(cfg[0] - waypoints[wi, 0], cfg[1] - waypoints[wi, 1]))
-                pos_new = np.hypot(end_xz[:, 0] - waypoints[wi, 0], end_xz[:, 1] - waypoints[wi, 1])
+                pos_now = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1]))
+                pos_new = np.hypot(end_xz[:, 0] - tp[0], end_xz[:, 1] - tp[1])
                 rate = (pos_now - pos_new) / span
                 # slow down by walking slower, not by wandering sideways: penalise the part of
                 # the travelled distance that is not progress
@@ -447,11 +489,30 @@ class SegmentPlanner:
                             yield
                             continue
             if pick is None:
+                far = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1])) > self.p.reach_radius
+                if far and len(order) and sidesteps < self.p.max_sidesteps:
+                    # blocked short of the way point (an obstacle or a planned character in the
+                    # way): take the clear edge that loses least, rather than skip the way point
+                    moves = np.hypot(ends[:, 0] - cfg[0], ends[:, 1] - cfg[1]) > 0.3
+                    cand = out[np.argsort(np.where(moves, e, np.inf), kind="stable")[:24]]
+                    cand = cand[np.hypot(*(compose(cfg[None], disp[cand])[:, :2] - cfg[None, :2]).T) > 0.3]
+                    ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
+                                     np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
+                                     moving=(not reverse) or time_budget is not None)
+                    if ok.any():
+                        sidesteps += 1
+                        advance(cand[np.argmax(ok)])
+                        elapsed += float(lib.dur[edges[-1]])
+                        yield
+                        continue
                 if not final:
-                    wi += 1
+                    # nothing gains on this target: aim further along the path
+                    ahead += self.p.carrot
+                    sidesteps = 0
                     continue
                 break
             advance(pick)
+            ahead = self.p.carrot
             elapsed += float(lib.dur[pick])
             yield
             if tgt is not None and node in tgt:
@@ -465,10 +526,13 @@ class SegmentPlanner:
             if not np.isfinite(dist[node]):
                 allowed = np.ones(g.num_edges, bool)
                 dist = self._bfs_dist(tgt, allowed, reverse)
-            self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst, disp, allowed)
+            self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst, disp, allowed,
+                              clear=clear1)
         return edges, node
 
-    def _fewest_path(self, node, dist, advance, get_node, get_cfg, target_xz, src, dst, disp, allowed):
+    def _fewest_path(self, node, dist, advance, get_node, get_cfg, target_xz, src, dst, disp, allowed, clear=None):
+        """Fewest edges to the nodes ``dist`` measures, ties broken by the distance to
+        ``target_xz``; with ``clear``, collision-free edges are preferred."""
         guard = 0
         while np.isfinite(dist[get_node()]) and dist[get_node()] > 0 and guard < 64:
             guard += 1
@@ -478,7 +542,14 @@ class SegmentPlanner:
                 break
             ends = compose(get_cfg()[None], disp[out])
             e = np.hypot(ends[:, 0] - target_xz[0], ends[:, 1] - target_xz[1])
-            advance(out[np.argmin(e)])
+            order = out[np.argsort(e, kind="stable")]
+            pick = order[0]
+            if clear is not None:
+                for cand in order[:8]:
+                    if clear(int(cand)):
+                        pick = cand
+                        break
+            advance(pick)
 
     # -- cost (Eq. 1, 2), vectorized over pairs ---------------------------------------------------
     def pair_costs(self, F: np.ndarray, nf: np.ndarray, B: np.ndarray, nb: np.ndarray,
@@ -857,8 +928,12 @@ class SegmentPlanner:
         # frame: an output frame straddling it would mix the two parts' displacement maps (whose
         # raw paths meet at an angle, the heading error not yet spread) into one step.
         jf = len(ff) - 1 if len(ff) and len(bf) else -1          # junction index in the source
-        if 0 < jf < n_src - 1 and m1 >= 2:
-            mf = int(np.clip(round(m1 * jf / (n_src - 1)), 1, m1 - 1))
+        if 0 < jf < n_src - 1 and m1 >= 2 and p.split_resample:
+            # the junction's output frame: the one that keeps both parts' warps smallest
+            ideal = m1 * jf / (n_src - 1)
+            cands = np.clip(np.arange(int(np.floor(ideal)) - 1, int(np.ceil(ideal)) + 2), 1, m1 - 1)
+            warp = np.maximum(np.abs(jf / cands - 1.0), np.abs((n_src - 1 - jf) / (m1 - cands) - 1.0))
+            mf = int(cands[np.argmin(warp)])
             u = np.concatenate([np.arange(mf) * (jf / mf),
                                 jf + np.arange(m1 - mf + 1) * ((n_src - 1 - jf) / (m1 - mf))])
             s_parts = (jf / mf, (n_src - 1 - jf) / (m1 - mf))

@@ -1,0 +1,222 @@
+"""Value clips for very large baked crowds: the time samples of N characters per layer, written
+by parallel worker processes.
+
+A bake with ``clips_per=N`` writes, beside ``out.usdc``::
+
+    out.usdc                            the stage: every prim, the frame arrays, clip metadata
+    out.usdc.clips-<digest>/            the clip directory (assembled under a temporary name,
+        chunk_0000.usdc                 then renamed: never half-written)
+        chunk_0001.usdc                 joint translations/rotations and crowdweave:root of
+        ...                             characters N*k .. N*k+N-1, as time samples
+        manifest.usda                   the attributes the clips carry (no values)
+
+Each character's SkelRoot carries one clip set (``Usd.ClipsAPI``, set ``default``) with its
+chunk layer as the only clip, ``primPath`` = its own path (so one layer serves N characters),
+``active = [(start, 0)]`` and the identity ``times`` mapping over its frames; USD composes the
+clip's samples as if they were authored in the stage (UsdSkel, ``Usd.Attribute.Get`` and
+``GetTimeSamples`` all see them).
+
+The directory name ends in a digest of its files, so the stage on disk always refers to a
+complete directory of matching content: a new bake renames a new directory into place before
+the stage is replaced, and :func:`remove_unused_clip_dirs` deletes the old one afterwards.
+Chunk layers are written in a ``spawn`` process pool (each process authors its chunks through
+Sdf and exports them); same input gives byte-identical files.
+"""
+from __future__ import annotations
+
+import hashlib
+import multiprocessing
+import os
+import re
+import shutil
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from pxr import Gf, Sdf, Vt
+
+from .stage import StageError
+
+__all__ = ["write_clip_layers", "ClipLayers", "remove_unused_clip_dirs", "clip_dir_pattern", "MANIFEST"]
+
+MANIFEST = "manifest.usda"
+GRAPH_FILE = ".graph.pickle"     # the library, for the workers (removed before the rename)
+
+
+def clip_dir_pattern(out_path) -> re.Pattern:
+    """Names of the clip directories a bake to ``out_path`` writes (``<name>.clips-<16 hex>``)."""
+    return re.compile(re.escape(Path(out_path).name) + r"\.clips-[0-9a-f]{16}")
+
+
+def _default_mode(mode: int) -> int:
+    um = os.umask(0)
+    os.umask(um)
+    return mode & ~um
+
+
+def _export(layer: Sdf.Layer, path: Path) -> str:
+    """Export, fsync, and return the file's sha256."""
+    if not layer.Export(str(path)):
+        raise StageError(path, "USD export failed")
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        os.fsync(f.fileno())
+        for block in iter(lambda: f.read(1 << 22), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _chunk_layer(graph, sv, fps: float, items) -> Sdf.Layer:
+    """A clip layer holding the time samples of ``items`` ((SkelRoot path, Track), ...)."""
+    from .crowd import POSE_BATCH_FRAMES, _batches, author_samples, define_animated_specs, pose_arrays, track_times
+    layer = Sdf.Layer.CreateAnonymous("chunk.usdc")
+    layer.timeCodesPerSecond = float(fps)
+    layer.framesPerSecond = float(fps)
+    with Sdf.ChangeBlock():
+        for batch in _batches(items, POSE_BATCH_FRAMES):
+            trans, quats, rootv = pose_arrays(graph, [tr for _, tr in batch], sv)
+            k = 0
+            for path, tr in batch:
+                specs = define_animated_specs(layer, Sdf.Path(path))
+                f = len(tr)
+                author_samples(specs, track_times(tr), trans[k:k + f], quats[k:k + f], rootv[k:k + f])
+                k += f
+    return layer
+
+
+# -- worker processes -----------------------------------------------------------------------------
+_W: dict = {}
+
+
+def _init_worker(graph_file, fps):
+    import pickle
+
+    from .crowd import SkelValues
+    with open(graph_file, "rb") as f:
+        graph = pickle.load(f)
+    _W.update(graph=graph, fps=fps, sv=SkelValues.of(graph.skeleton))
+
+
+def _write_chunk(args):
+    directory, name, items = args
+    layer = _chunk_layer(_W["graph"], _W["sv"], _W["fps"], items)
+    return name, _export(layer, Path(directory) / name)
+
+
+class ClipLayers:
+    """Clip layers being written for one bake (see :func:`write_clip_layers`)."""
+
+    def __init__(self, out_path, items, graph, fps: float, clips_per: int, workers: int | None):
+        self.out = Path(out_path)
+        self.fps = float(fps)
+        self.graph = graph
+        chunks = [items[i:i + clips_per] for i in range(0, len(items), clips_per)]
+        self.tasks = [(f"chunk_{k:04d}.usdc", [(str(p), tr) for p, tr in c]) for k, c in enumerate(chunks)]
+        self.chunk_of = {str(p): name for name, c in self.tasks for p, _ in c}
+        self.workers = max(1, min(int(workers or min(2, os.cpu_count() or 1)), len(self.tasks)))
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.clips-tmp-", dir=self.out.parent))
+        self.dir_name: str | None = None
+        self._pool = self._pending = None
+        try:
+            self._start(graph)
+        except BaseException:
+            self.close(failed=True)
+            raise
+
+    def _start(self, graph) -> None:
+        if self.workers > 1:
+            # The library goes to the workers as a file: a large argument would block this process
+            # until each worker has started up and read it. spawn, not fork: the parent has USD (and
+            # its thread pool) loaded. A worker that dies raises BrokenProcessPool instead of hanging.
+            import pickle
+            graph_file = self.tmp / GRAPH_FILE
+            with open(graph_file, "wb") as f:
+                pickle.dump(graph, f, protocol=pickle.HIGHEST_PROTOCOL)
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                             initializer=_init_worker, initargs=(str(graph_file), self.fps))
+            self._pending = [self._pool.submit(_write_chunk, (str(self.tmp), n, c)) for n, c in self.tasks]
+
+    def wait(self) -> str:
+        """Wait for the chunk layers, write the manifest, rename the directory into place; returns
+        its name (relative to the stage's directory)."""
+        from .crowd import SkelValues, define_animated_specs
+        if self._pool is not None:
+            digests = [f.result() for f in self._pending]
+            self._pool.shutdown()
+            self._pool = None
+            (self.tmp / GRAPH_FILE).unlink()
+        else:
+            sv = SkelValues.of(self.graph.skeleton)
+            digests = [(n, _export(_chunk_layer(self.graph, sv, self.fps, c), self.tmp / n)) for n, c in self.tasks]
+        manifest = Sdf.Layer.CreateAnonymous("manifest.usda")
+        manifest.timeCodesPerSecond = self.fps
+        manifest.framesPerSecond = self.fps
+        with Sdf.ChangeBlock():
+            for p in self.chunk_of:
+                define_animated_specs(manifest, Sdf.Path(p))
+        digests.append((MANIFEST, _export(manifest, self.tmp / MANIFEST)))
+        h = hashlib.sha256("".join(f"{n}:{d}\n" for n, d in sorted(digests)).encode())
+        self.dir_name = f"{self.out.name}.clips-{h.hexdigest()[:16]}"
+        final = self.out.parent / self.dir_name
+        os.chmod(self.tmp, _default_mode(0o777))
+        if final.is_dir():          # the same content (the name is its digest): keep the one in place
+            shutil.rmtree(self.tmp)
+        else:
+            os.rename(self.tmp, final)
+        return self.dir_name
+
+    def author_clip_set(self, prim_spec: Sdf.PrimSpec, path, track) -> None:
+        """The clip set of one character on its SkelRoot spec (call after :meth:`wait`)."""
+        assert self.dir_name is not None, "wait() first"
+        start = float(track.start_frame)
+        end = start + len(track) - 1
+        times = [Gf.Vec2d(start, start)] + ([Gf.Vec2d(end, end)] if end > start else [])
+        prim_spec.SetInfo("clips", {"default": {
+            "assetPaths": Sdf.AssetPathArray([f"./{self.dir_name}/{self.chunk_of[str(path)]}"]),
+            "manifestAssetPath": Sdf.AssetPath(f"./{self.dir_name}/{MANIFEST}"),
+            "primPath": str(path),
+            "active": Vt.Vec2dArray([Gf.Vec2d(start, 0.0)]),
+            "times": Vt.Vec2dArray(times),
+        }})
+
+    def close(self, failed: bool) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+        if self.tmp.exists():
+            shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close(exc_type is not None)
+        return False
+
+
+def write_clip_layers(out_path, items, graph, fps: float, clips_per: int, workers: int | None = None) -> ClipLayers:
+    """Start writing the clip layers of ``items`` ((SkelRoot path, Track), ...) for a stage that
+    will be saved as ``out_path``: ``clips_per`` characters per layer, ``workers`` processes
+    (default 2; 1 writes in this process). Use as a context manager; :meth:`ClipLayers.wait`
+    finishes the directory (temporary name, then rename), :meth:`ClipLayers.author_clip_set` points a
+    character at its layer. On an error the temporary directory is removed."""
+    return ClipLayers(out_path, list(items), graph, fps, int(clips_per), workers)
+
+
+def remove_unused_clip_dirs(out_path, keep: str | None = None) -> list[Path]:
+    """Delete clip directories of earlier bakes to ``out_path`` other than ``keep`` (default: the
+    one the saved stage names in its customLayerData ``crowdweave:clipDirectory``); returns them."""
+    out = Path(out_path)
+    if keep is None:
+        from pxr import Sdf as _Sdf
+        layer = _Sdf.Layer.OpenAsAnonymous(str(out), metadataOnly=True) if out.is_file() else None
+        keep = (layer.customLayerData.get("crowdweave:clipDirectory") if layer else None) or ""
+    pat = clip_dir_pattern(out)
+    removed = []
+    if out.parent.is_dir():
+        for d in sorted(out.parent.iterdir()):
+            if d.is_dir() and pat.fullmatch(d.name) and d.name != keep:
+                shutil.rmtree(d, ignore_errors=True)
+                removed.append(d)
+    return removed
