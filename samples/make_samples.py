@@ -417,13 +417,14 @@ ROOM_POINTS = {
 }
 
 
-def rooms_scenario(seed: int = 0) -> dict:
-    """Eight characters walk round triangles of points in the rooms (5 goals each, windows 2 s
-    wide laid out at 1.1 m/s plus a 2 s pause), planned first; then the character "main" (listed last, so planned last: the others are moving
-    obstacles to it) starts in the lower-right room at (21.5, 6.5) and must pick up box
-    /World/Boxes/b01 in the upper-right room, with no time constraint."""
+def rooms_scenario(seed: int = 0, movers: bool = False) -> dict:
+    """The character "main" starts in the lower-right room at (21.5, 6.5) and must pick up box
+    /World/Boxes/b01 in the upper-right room, with no time constraint -- paper 000's
+    Experiment 3 is this one character. With ``movers``, eight more characters first walk round
+    triangles of points in the rooms (5 goals each, windows 2 s wide laid out at 1.1 m/s plus a
+    2 s pause) and are moving obstacles to it (a harder variant, not the paper's)."""
     chars = []
-    for k, (room, pts) in enumerate(ROOM_POINTS.items()):
+    for k, (room, pts) in enumerate(ROOM_POINTS.items() if movers else ()):
         pts = [np.array(p, float) for p in pts]
         start = pts[-1]
         t = 3.0 + 1.5 * k
@@ -441,7 +442,7 @@ def rooms_scenario(seed: int = 0) -> dict:
     chars.append({"name": "main", "start": {"position": [21.5, 6.5], "heading": -90.0, "pose": "stand"},
                   "goal": [{"box": "/World/Boxes/b01"}]})
     return {"name": "rooms_box", "description": "Experiment 3 (paper 000, Figure 7): one character crosses "
-            "rooms full of obstacles and other characters and picks up a box",
+            "rooms full of obstacles and picks up a box",
             "world": "world.usda", "library": "default", "duration": 75.0, "seed": seed, "character": chars}
 
 
@@ -698,12 +699,13 @@ One character, `main`, starts in the lower-right room and must **pick up box
 box, facing it, in pose `carry`). `world.usda` has six 8 x 8 m rooms (x 0..24, z -8..8; "up"
 in a top view is -Z) with 2.4 m doors placed so the only route runs through the four other rooms
 (about 45 m), and furniture in every room: tables, shelves, cabinets, crates and pillars.
-Every gap between furniture and walls is either closed (< 0.6 m) or at least 1.5 m wide.
+Every gap between furniture and walls is either closed (< 0.6 m) or at least 1.9 m wide (a
+walking character's cylinder is up to 1.26 m across).
 
-Eight other characters (`m1_lr` ... `m8_ur`) walk round triangles of points in the rooms with
-2 s windows; they are listed first, so they are planned first and are moving obstacles for
-`main`, which has no time constraint. The paper's Table 1 row counts only the crossing
-character; the benchmark prints `main`'s own figures under the row.
+As in the paper's Table 1 row, `main` is the only character. `make_samples.rooms_scenario(
+movers=True)` adds eight characters walking round triangles of points in the rooms with 2 s
+windows, planned first as moving obstacles: a harder variant that the planner does not yet
+solve cleanly (see docs/status.md).
 """, world=True),
     "theater40": _readme("theater40", "paper 000, Experiment 4 (Figure 8)", """
 40 characters start in a **lobby** and take **theater seats** (goal `seat = "/World/Seats/rB_sJ"`:

@@ -327,9 +327,15 @@ class SegmentPlanner:
         (edges in the walking order, last node).
 
         Each step takes, among the collision-free edges of the travel state that reduce the
-        error to the current way point, the one that brings the character closest to it; when
-        all of them increase it, the next way point becomes the target; at the last one the
-        error also counts orientation and the planner stops when it stops decreasing.
+        error to the current target, the one that brings the character closest to it (with a
+        two-edge lookahead); at the last way point the error also counts orientation and the
+        planner stops when it stops decreasing. On a path of several way points the target is
+        a point ``carrot`` metres ahead of the character's projection onto the path (so seeds
+        follow the roadmap's line through doors instead of cutting towards a way point beyond
+        them); when no edge gains on it, the target moves further along. When improving edges
+        exist but all collide, the seed waits on an idle clip for a planned character to pass
+        (``max_waits``) or, short of the target, takes the clear edge that loses least
+        (``max_sidesteps``) instead of giving the target up.
         The paper's planner ignores time. With a ``time_budget`` (seconds to the goal) this
         one prefers, among the improving edges, the one whose progress rate matches the rate
         the budget asks for, and idles on the node's self-loop clips while time is in
