@@ -600,13 +600,14 @@ class SegmentPlanner:
         nodeF = np.where(validF, nodeF, -5)
         nodeB = np.where(validB, nodeB, -6)
         same = nodeF[:, :, None] == nodeB[:, None, :]
-        N = tF[:, :, None] + tB[:, None, :]
-        same &= N > 0.2
         # only the pairs that meet at a node are costed (a sparse gather, C order: sorted by pair)
         pp, ii, jj = np.nonzero(same)
+        Np = tF[pp, ii] + tB[pp, jj]
+        keep = Np > 0.2
+        if not keep.all():
+            pp, ii, jj, Np = pp[keep], ii[keep], jj[keep], Np[keep]
         if len(pp) == 0:
             return np.full(P, np.inf), np.zeros(P, dtype=np.int64), np.full(P, Lb, dtype=np.int64)
-        Np = N[pp, ii, jj]
         Ep = np.hypot(xF[pp, ii] - xB[pp, jj], zF[pp, ii] - zB[pp, jj])
         dh = hF[pp, ii] - hB[pp, jj]
         Eh = np.abs(dh - TWO_PI * np.rint(dh * (1.0 / TWO_PI)))
@@ -614,12 +615,21 @@ class SegmentPlanner:
         if window_rel is not None:
             c += a2 * np.maximum(0.0, np.maximum(window_rel[0] - Np, Np - window_rel[1]))
         c /= Np
-        # per pair minimum (Eq. 2) through a dense scatter and one argmin
-        dense = np.full((P, (Lf + 1) * (Lb + 1)), np.inf)
-        dense[pp, ii * (Lb + 1) + jj] = c
-        k = np.argmin(dense, axis=1)
-        best = dense[np.arange(P), k]
-        return best, k // (Lb + 1), k % (Lb + 1)
+        # per pair minimum (Eq. 2): entries are grouped by pair in (i, j) row-major order, so the
+        # first entry equal to its group's minimum is the row-major argmin
+        starts = np.flatnonzero(np.r_[True, pp[1:] != pp[:-1]])
+        gmin = np.minimum.reduceat(c, starts)
+        at_min = c == np.repeat(gmin, np.diff(np.r_[starts, len(c)]))
+        cand = np.flatnonzero(at_min)
+        pc = pp[cand]
+        first = cand[np.r_[True, pc[1:] != pc[:-1]]]
+        best = np.full(P, np.inf)
+        bi = np.zeros(P, dtype=np.int64)
+        bj = np.full(P, Lb, dtype=np.int64)
+        best[pp[first]] = c[first]
+        bi[pp[first]] = ii[first]
+        bj[pp[first]] = jj[first]
+        return best, bi, bj
 
     def _goal_node_col(self, P):
         return np.full((P, 1), self._goal_node)
