@@ -40,6 +40,7 @@ class CrowdResult:
     characters: list
     order: list
     total_seconds: float = 0.0
+    passes: int = 1           # planning passes run (failed characters first in each new one)
 
     def by_name(self, name) -> CharacterResult:
         return next(c for c in self.characters if c.name == name)
@@ -118,7 +119,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
         failed_first = failed + [ci for ci in failed_first if ci not in set(failed)]
     _, order, results = best
     total = time.perf_counter() - t_all
-    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total)
+    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k + 1)
 
 
 def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order, progress, log, k=0):
