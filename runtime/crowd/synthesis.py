@@ -86,6 +86,7 @@ class SynthesisParams:
     sweep: int = 100               # perturbations per iteration spent on every alternative of one clip
     sweep_pairs: int = 2000        # two-clip combinations scored per pair sweep (a random subset)
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
+    static_seed_margin: float = 0.08  # extra clearance (m) from obstacles in the seeds (sampling gaps)
     seed_margin: float = 0.0       # extra clearance (m) from planned characters in the seeds
     reach_radius: float = 0.75     # a way point counts as reached within this distance (m)
     max_sidesteps: int = 6         # non-improving clear edges a seed may take per way point
@@ -291,7 +292,9 @@ class SegmentPlanner:
         rad = self.g.frame_radius[gf].astype(np.float64) + self.p.margin
         bad = np.zeros(len(gf), dtype=bool)
         if self.static is not None:
-            bad |= self.static(world[:, :2]) < rad
+            # samples are every few frames: keep the distance a character covers between two
+            # samples from obstacles too, or a seed that grazes one fails the per-frame test
+            bad |= self.static(world[:, :2]) < rad + self.p.static_seed_margin
         if moving and self.collide is not None:
             # seeds keep a wider berth from moving characters: the splice later shifts the
             # motion in space (displacement maps) and in time (resampling)
