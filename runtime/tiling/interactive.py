@@ -1,0 +1,595 @@
+"""Interactive tiling (paper 003, section 5.3): a runtime system that keeps a time horizon of
+stitched patches ahead of the clock for a small number of characters steered by user targets.
+
+Every character has a *tail*: the dangling exit of the last patch instance it plays. Each
+:meth:`InteractiveTiling.step` advances the clock and, for the characters whose tail is less than
+``horizon`` seconds ahead (most urgent first; at most ``max_per_tick`` of them unless a tail is about
+to be reached -- a work budget, so runs are reproducible; ``budget_ms`` adds a wall-clock budget
+after the first extension of a tick, at the price of reproducibility), samples a new patch
+instance at the tail:
+
+* candidates are the library patches with an entry of the tail's pose class, aligned on the
+  tail (Eq. 1-3 hold exactly, nothing deforms) -- or, for multi-character patches, fitted
+  rigidly to the tails of the other characters their other entries match (two-point fit), then
+  deformed so every entry lands on its tail (only the new patch deforms: the past is pinned);
+* they are ordered by the preference function Eq. 7 used as a sampling distribution (Gumbel
+  top-k at ``temperature``, i.e. ``F^(1/temperature)`` normalised): ``f1`` the squared distance from where the patch leaves the character to its team's
+  target, ``f2`` the squared angle between the exit heading and the direction to the target,
+  ``f4`` label costs (e.g. a bonus for interaction labels);
+* the first valid one (deformation within limits, no box overlap with any committed instance
+  or obstacle in the space-time index) is committed; a few jittered placements are tried when
+  needed. If none is valid the character gets the best single-character patch anyway (a
+  standing one when one was tried), ``stats["forced"]``.
+
+Playback is vectorized: committed samples are written into per-character ring buffers indexed
+by clock frame, so :meth:`root_states` / :meth:`pose_refs` / :meth:`poses` are array gathers over
+all characters (no per-agent Python per tick). Python runs per character only when its tail
+needs a new patch (about once a second per character).
+
+Tracks for a bake or the viewer (identity continuous across stitched patches): with
+``record=True`` every committed sample is kept, and :meth:`tracks` returns one
+:class:`~runtime.tiling.result.CharacterTrack` per character (library flat-table frame indices,
+root x/z/heading), usable with ``runtime.crowd.tracks.evaluate_poses(library, ...)``.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+
+from .patch import PatchLibrary
+from .result import CharacterTrack
+from .tiler import Candidate, PreparedLibrary, Region, TilerConfig, TilingState, _rot, braking
+
+__all__ = ["InteractiveTiling"]
+
+RING = 2048   # frames of playback buffered per character (> horizon + longest fragment)
+
+
+class InteractiveTiling:
+    def __init__(self, library, horizon: float = 1.5, seed: int = 0, config: TilerConfig | None = None,
+                 obstacles=(), max_per_tick: int = 3, budget_ms: float | None = None, record: bool = True,
+                 bounds=(-1e3, -1e3, 1e3, 1e3),
+                 spawn_class: int = 0, interaction_labels=(), interaction_bonus: float = 2.0,
+                 sigma_pos: float = 4.0, sigma_dir: float = 1.0, top_k: int = 4, jitter_tries: int = 4,
+                 partner_radius: float = 1.2, partner_time: float = 0.6, partner_dir: float = 35.0,
+                 label_cost: dict | None = None,
+                 formation_spacing: float = 2.0, max_singles: int = 24, clearance: float = 0.35,
+                 max_retract: int = 1, max_yields: int = 4, probe: float = 1.2, temperature: float = 0.7):
+        prepared = library if isinstance(library, PreparedLibrary) else PreparedLibrary(library)
+        self.lib = prepared
+        self.library: PatchLibrary = prepared.library
+        cfg = config or TilerConfig()
+        if cfg.max_query_margin < cfg.margin + clearance:
+            from dataclasses import replace
+            cfg = replace(cfg, max_query_margin=cfg.margin + clearance)
+        region = Region(bounds[0], bounds[1], bounds[2], bounds[3], 0.0, 8 * 3600.0)
+        self.state = TilingState(prepared, region, obstacles, (), cfg, seed)
+        self.rng = self.state.rng
+        self.fps = cfg.fps
+        self.horizon = float(horizon)
+        self.max_per_tick = int(max_per_tick)
+        self.budget = None if budget_ms is None else budget_ms / 1000.0
+        self.record = record
+        self.spawn_class = spawn_class
+        self.sigma_pos, self.sigma_dir = sigma_pos, sigma_dir
+        self.top_k = top_k
+        self.jitter_tries = jitter_tries
+        self.partner_radius = partner_radius
+        self.partner_time = partner_time
+        self.partner_dir = partner_dir
+        self.formation_spacing = formation_spacing
+        self.max_singles = max_singles
+        self.max_retract = max_retract
+        self.max_yields = max_yields
+        self.probe = int(round(probe * self.fps))
+        self.temperature = float(temperature)
+        self._yields = 0
+        self.clearance = clearance
+        self.t = 0.0
+        self.frame = 0
+        # label factor per patch (Eq. 7, f4)
+        lc = dict(label_cost or {})
+        for l in interaction_labels:
+            lc[l] = lc.get(l, 0.0) - interaction_bonus
+        self.log_label = np.array([-sum(lc.get(l, 0.0) for l in pp.patch.labels) for pp in prepared.patches])
+        # candidate tables per entry class: (patch, port, fragment exit port), rest port values
+        self.cands = {}
+        for (kind, cls), arr in prepared.by_port.items():
+            if kind != 0:
+                continue
+            p, j = arr[:, 0], arr[:, 1]
+            pps = [prepared.patches[int(q)] for q in p]
+            self.cands[cls] = {
+                "p": p, "j": j, "multi": np.array([pp.K > 1 for pp in pps]),
+                "pxz": np.array([pp.port_xz[jj] for pp, jj in zip(pps, j)]),
+                "pdir": np.array([pp.port_dir[jj] for pp, jj in zip(pps, j)]),
+                "ptime": np.array([pp.port_time[jj] for pp, jj in zip(pps, j)]),
+                "exz": np.array([pp.port_xz[jj + 1] for pp, jj in zip(pps, j)]),
+                "edir": np.array([pp.port_dir[jj + 1] for pp, jj in zip(pps, j)]),
+                "label": self.log_label[p],
+                "stand": np.array([("idle" in pp.patch.labels) and pp.K == 1 for pp in pps]),
+            }
+        # characters
+        self.n = 0
+        self.team = np.zeros(0, np.int64)
+        self.tail: list = []                      # dangling exit key per character
+        self.tail_time = np.zeros(0)
+        self.ring_q = np.full((0, RING), -1, np.int64)
+        self.ring_ab = np.zeros((0, RING, 2), np.int64)
+        self.ring_w = np.zeros((0, RING), np.float32)
+        self.ring_root = np.zeros((0, RING, 3))
+        self.last_h = np.zeros(0)
+        self.hist: list = []
+        self.seg: list = []                       # per character: (instance, fragment, frames, previous heading)
+        self.ban: list = []                       # per character: patches not to retry at the current tail
+        self.archive: list = []                   # instances forgotten from the index (record=True)
+        self.res_owner: list = []                 # per character: index owner of its reservation boxes
+        self.targets: dict = {}
+        self._owner_chars: dict = {}              # instance id -> characters it carries
+        self.stats = {"extensions": 0, "multi": 0, "forced": 0, "evaluated": 0, "pruned": 0, "deferred": 0,
+                      "retracted": 0, "yielded": 0}
+        self._tick = 0
+
+    # -- characters and control ------------------------------------------------------------------
+    def set_target(self, team: int, position, spacing: float | None = None) -> None:
+        """Steer a team: candidates that leave its characters nearer their spot are preferred.
+        The spots form a square grid of ``spacing`` metres (default ``formation_spacing``)
+        centred on ``position``, in the order the members were added."""
+        self.targets[int(team)] = (np.asarray(position, np.float64).reshape(2),
+                                   self.formation_spacing if spacing is None else float(spacing))
+
+    def target_of(self, cid: int):
+        tg = self.targets.get(int(self.team[cid]))
+        if tg is None:
+            return None
+        pos, sp = tg
+        members = np.flatnonzero(self.team == self.team[cid])
+        n = len(members)
+        k = int(np.searchsorted(members, cid))
+        side = int(math.ceil(math.sqrt(n)))
+        r, c = divmod(k, side)
+        return pos + sp * np.array([c - 0.5 * (side - 1), r - 0.5 * (math.ceil(n / side) - 1)])
+
+    def add_character(self, position, heading: float = 0.0, team: int = 0) -> int:
+        """Start a character standing at ``position`` facing ``heading`` at the current time."""
+        st = self.state
+        c = self.cands.get(self.spawn_class)
+        if c is None:
+            raise ValueError(f"the library has no patch entering pose class {self.spawn_class}")
+        order = np.flatnonzero(c["stand"]) if c["stand"].any() else np.flatnonzero(~c["multi"])
+        row = np.array([position[0], position[1], heading, self.t, 0.0, 0.0, 1, self.spawn_class, 1, 0])
+        best = None
+        for k in order[self.rng.permutation(len(order))]:
+            p, j = int(c["p"][k]), int(c["j"][k])
+            place = self._align_row(k, c, row)
+            cand = st.evaluate(p, place, match_others=False)
+            if best is None:
+                best = cand
+            if not st.collides(cand):
+                best = cand
+                break
+        iid = st.commit(best)
+        st.dang.remove((iid, 0))                  # the entry is a source: not dangling
+        cid = self.n
+        self.n += 1
+        self.team = np.append(self.team, int(team))
+        self.tail.append((iid, 1))
+        self.tail_time = np.append(self.tail_time, st.inst[iid].time[-1])
+        self.ring_q = np.concatenate([self.ring_q, np.full((1, RING), -1, np.int64)])
+        self.ring_ab = np.concatenate([self.ring_ab, np.zeros((1, RING, 2), np.int64)])
+        self.ring_w = np.concatenate([self.ring_w, np.zeros((1, RING), np.float32)])
+        self.ring_root = np.concatenate([self.ring_root, np.zeros((1, RING, 3))])
+        self.last_h = np.append(self.last_h, np.nan)
+        self.hist.append([])
+        self.seg.append([])
+        self.ban.append(set())
+        self._owner_chars[iid] = [cid]
+        self.res_owner.append(st.next_id)
+        st.next_id += 1
+        self._write(cid, iid, 0, first=True)
+        self._reserve(cid)
+        return cid
+
+    # -- internals -------------------------------------------------------------------------------
+    def _align_row(self, k, c, row):
+        th = float(row[2] - c["pdir"][k])
+        pos = row[:2] - _rot(c["pxz"][k], th)
+        return (float(pos[0]), float(pos[1]), th, float(row[3] - c["ptime"][k]))
+
+    def _write(self, cid, iid, frag, first=False):
+        """Put fragment ``frag`` of instance ``iid`` into character ``cid``'s playback ring."""
+        st = self.state
+        inst = st.inst[iid]
+        fr, fg, s, xz, hd = st.samples(inst)[:5]
+        m = fg == frag
+        q, s, xz, hd = fr[m], s[m], xz[m], hd[m]
+        if len(q) == 0:
+            return
+        pp = self.lib.patches[inst.p]
+        a0 = pp.frag_start[frag]
+        off = self.library.fragment_offset(inst.p, frag)
+        i0 = np.floor(s).astype(np.int64)
+        i1 = np.minimum(i0 + 1, pp.frag_start[frag + 1] - 1)
+        w = (s - i0).astype(np.float32)
+        prev_h = self.last_h[cid]
+        if not np.isnan(prev_h):
+            hd = hd + 2 * np.pi * np.round((prev_h - hd[0]) / (2 * np.pi))
+        self.last_h[cid] = hd[-1]
+        self.seg[cid].append((iid, frag, q, prev_h))
+        slot = q % RING
+        self.ring_q[cid, slot] = q
+        self.ring_ab[cid, slot, 0] = off + i0 - a0
+        self.ring_ab[cid, slot, 1] = off + i1 - a0
+        self.ring_w[cid, slot] = w
+        self.ring_root[cid, slot, 0] = xz[:, 0]
+        self.ring_root[cid, slot, 1] = xz[:, 1]
+        self.ring_root[cid, slot, 2] = hd
+        if self.record:
+            self.hist[cid].append((q, off + i0 - a0, off + i1 - a0, w, np.column_stack([xz, hd]), iid, frag))
+
+    def _commit(self, cand: Candidate, chars_by_key: dict) -> None:
+        st = self.state
+        iid = st.commit(cand)
+        for j, key in cand.conns:
+            cid = chars_by_key.get(key)
+            if cid is not None:
+                self.ban[cid] = set()
+        carried = []
+        for j, key in cand.conns:
+            cid = chars_by_key.get(key)
+            if cid is None:
+                continue
+            k = j // 2
+            self.tail[cid] = (iid, 2 * k + 1)
+            self.tail_time[cid] = st.inst[iid].time[st.lib.patches[cand.p].port_frame[2 * k + 1]]
+            self._write(cid, iid, k)
+            self._reserve(cid)
+            carried.append(cid)
+        self._owner_chars[iid] = carried
+        self.stats["extensions"] += 1
+        if self.lib.patches[cand.p].K > 1:
+            self.stats["multi"] += 1
+
+    def _extend(self, cid: int, depth: int = 0) -> None:
+        st = self.state
+        key = self.tail[cid]
+        D = st.dang
+        row = D.rows[D.where[key]].copy()
+        cls = int(row[7])
+        c = self.cands.get(cls)
+        chars_by_key = {k: i for i, k in enumerate(self.tail)}
+        if c is None:
+            raise RuntimeError(f"no patch enters pose class {cls}; the library cannot continue character {cid}")
+        # vectorized preference over all candidates aligned on the tail
+        th = row[2] - c["pdir"]
+        cs, sn = np.cos(th), np.sin(th)
+        dv = c["exz"] - c["pxz"]
+        ex = row[0] + cs * dv[:, 0] + sn * dv[:, 1]
+        ez = row[1] - sn * dv[:, 0] + cs * dv[:, 1]
+        logf = c["label"].copy()
+        tgt = self.target_of(cid)
+        if tgt is not None:
+            d2 = (ex - tgt[0]) ** 2 + (ez - tgt[1]) ** 2
+            want = np.arctan2(tgt[0] - ex, tgt[1] - ez)
+            da = (c["edir"] + th - want + np.pi) % (2 * np.pi) - np.pi
+            near = d2 < 0.25
+            logf -= d2 / self.sigma_pos + np.where(near, 0.0, da * da / self.sigma_dir)
+        logf += self.temperature * self.rng.gumbel(size=len(logf))
+        if self.ban[cid]:
+            logf[np.isin(c["p"], list(self.ban[cid]))] = -np.inf
+        order = np.argsort(-logf, kind="stable")
+        order = order[np.isfinite(logf[order])]
+        fallback = None
+        plans = []
+        # pass 1: single-character candidates, placed exactly on the tail (rigid), all tested in
+        # one vectorized space-time query; then the multi-character ones in preference order
+        single = order[~c["multi"][order]][:self.max_singles]
+        multi = order[c["multi"][order]]
+        if len(multi):
+            # interactions first whenever partners are in place (the fit says so quickly)
+            for k in multi[:self.top_k]:
+                p, j = int(c["p"][k]), int(c["j"][k])
+                place, forced = self._fit_multi(p, j, key, row, self._align_row(k, c, row), chars_by_key)
+                if forced is None:
+                    continue
+                cand = st.evaluate(p, place, forced=forced, match_others=False)
+                self.stats["evaluated"] += 1
+                ign = {self.res_owner[chars_by_key[k2]] for _, k2 in forced}
+                if cand.limits_ok and not st.collides(cand, margin=st.cfg.margin + self.clearance, ignore=ign):
+                    self._commit(cand, chars_by_key)
+                    return
+        ths = row[2] - c["pdir"][single]
+        cs_, sn_ = np.cos(ths), np.sin(ths)
+        pxz = c["pxz"][single]
+        places = np.column_stack([row[0] - (cs_ * pxz[:, 0] + sn_ * pxz[:, 1]), row[1] - (cs_ * pxz[:, 1] - sn_ * pxz[:, 0]),
+                                  ths, row[3] - c["ptime"][single]])
+        ps = c["p"][single]
+        self.stats["evaluated"] += len(single)
+        own = {self.res_owner[cid]}
+        f, hits, probe_hits = st.rigid_batch_free(ps, places, margin=st.cfg.margin + self.clearance, probe=self.probe,
+                                                  ignore=own)
+        if f < 0:                                           # free but no room to go on: still better than nothing
+            ok = np.flatnonzero(hits == 0)
+            f = int(ok[np.argmin(probe_hits[ok])]) if len(ok) else -1
+        if f < 0:
+            f = st.rigid_batch_free(ps, places, ignore=own)
+        if f < 0:                                           # only others' reservations in the way
+            f, hits = st.rigid_batch_free(ps, places, ignore=set(self.res_owner), counts=True)
+        if f >= 0:
+            k = single[f]
+            self._commit(st.rigid_candidate(int(ps[f]), tuple(places[f]), [(int(c["j"][k]), key)]), chars_by_key)
+            return
+        if len(single):
+            fallback = (int(ps[int(np.argmin(hits))]), tuple(places[int(np.argmin(hits))]), int(c["j"][single[int(np.argmin(hits))]]))
+        for k in single[:self.top_k]:
+            plans.append((int(c["p"][k]), self._align_row(k, c, row), [(int(c["j"][k]), key)]))
+        # nothing fits: the characters whose not-yet-played patches block the least-overlapping
+        # candidate yield them (bounded per tick), or this character takes back its own last one
+        if fallback is None:
+            k = int(np.flatnonzero(~c["multi"])[0])
+            fallback = (int(c["p"][k]), self._align_row(k, c, row), int(c["j"][k]))
+        p, place, j = fallback
+        best = cand = st.rigid_candidate(p, place, [(j, key)])
+        # the characters whose not-yet-played patches block the best candidate yield them
+        if self._yields < self.max_yields:
+            fr, _, _, _, _, cen, lat, hx, hz, ylo, yhi = st.samples(cand)
+            _, owners = st.index.query(fr, cen, lat, hx, hz, ylo, yhi, margin=st.cfg.margin, first_only=False,
+                                       return_owners=True, ignore=own)
+            tail_of = {k[0]: i for i, k in enumerate(self.tail)}
+            tail_of.update({r: i for i, r in enumerate(self.res_owner)})
+            yielded = sorted({tail_of[o] for o in owners if o in tail_of and tail_of[o] != cid})
+            if yielded and all(o in tail_of for o in owners) and all(self._retract(o) for o in yielded):
+                self._yields += len(yielded)
+                self.stats["yielded"] += len(yielded)
+                if not st.collides(cand, ignore=own):
+                    self._commit(cand, chars_by_key)
+                    return
+        # (a different previous patch opens other ways)
+        if depth < self.max_retract and self._retract(cid):
+            while self.tail_time[cid] < self.t + self.horizon:
+                self._extend(cid, depth + 1)
+            return
+        # pass 2: small jitters of the preferred ones (``jitter_tries`` evaluations in all)
+        for n_j in range(self.jitter_tries if depth == 0 else 0):
+            if not plans:
+                break
+            p, place, forced = plans[n_j % len(plans)]
+            cand = st.evaluate(p, self._jitter(place, n_j), forced=forced, match_others=False)
+            self.stats["evaluated"] += 1
+            if cand.limits_ok and not st.collides(cand, ignore={self.res_owner[chars_by_key[k2]] for _, k2 in forced}):
+                self._commit(cand, chars_by_key)
+                return
+        # forced: the candidate that overlaps least
+        self.stats["forced"] += 1
+        self._commit(best, chars_by_key)
+
+    def _reserve(self, cid: int) -> None:
+        """Reserve where the character will be just after its tail: its last box carried on at the
+        last velocity for ``probe`` frames, so others keep out of the way it must go on."""
+        if not self.probe:
+            return
+        st = self.state
+        iid, port = self.tail[cid]
+        inst = st.inst[iid]
+        pp = self.lib.patches[inst.p]
+        k = port // 2
+        a, b = pp.frag_start[k], pp.frag_start[k + 1]
+        q_end = inst.time[b - 1] * self.fps
+        v = (inst.xz[b - 1] - inst.xz[b - 2]) / max((inst.time[b - 1] - inst.time[b - 2]) * self.fps, 1e-6)
+        q0 = int(math.ceil(q_end - 1e-6))
+        q = np.arange(q0, q0 + self.probe)
+        dt = braking(q - q_end, self.probe)[:, None]
+        st.reserve(self.res_owner[cid], q, inst.xz[b - 1] + v * dt, np.full(len(q), inst.heading[b - 1]),
+                   np.repeat(pp.box[b - 1:b], len(q), 0))
+
+    def _retract(self, cid: int) -> bool:
+        """Take back the character's last instance if it is single-character and has not started
+        playing yet (it is in the future, so nothing visible changes); its tail goes back to the
+        previous exit and the patch is banned there for the next try."""
+        st = self.state
+        iid, port = self.tail[cid]
+        inst = st.inst.get(iid)
+        segs = self.seg[cid]
+        if inst is None or len(segs) < 2 or self.lib.patches[inst.p].K != 1 or inst.fixed:
+            return False
+        if inst.time[0] * self.fps <= self.frame + 2:
+            return False
+        prev = inst.links[0]
+        if prev is None:
+            return False
+        _, _, q, prev_h = segs.pop()
+        slot = q % RING
+        stale = self.ring_q[cid, slot] == q
+        self.ring_q[cid, slot[stale]] = -1
+        self.last_h[cid] = prev_h
+        if self.record and self.hist[cid] and self.hist[cid][-1][5] == iid:
+            self.hist[cid].pop()
+        st.remove(iid)
+        st.history.pop(prev, None)
+        self._owner_chars.pop(iid, None)
+        self.tail[cid] = prev
+        self.tail_time[cid] = st.dang.rows[st.dang.where[prev], 3]
+        self.ban[cid] = {inst.p}
+        self._reserve(cid)
+        self.stats["retracted"] += 1
+        return True
+
+    def _jitter(self, place, i):
+        """Small jitters for the interactive search (a third of Algorithm 2's first range)."""
+        x, z, th, t = place
+        r = 0.2 * math.sqrt(self.rng.random())
+        a = self.rng.uniform(-np.pi, np.pi)
+        return (x + r * math.cos(a), z + r * math.sin(a), th + self.rng.uniform(-0.087, 0.087), t + self.rng.uniform(-0.1, 0.1))
+
+    def _fit_multi(self, p, j, key, row, place, chars_by_key):
+        """Rigid two-point fit of a multi-character patch: entry ``j`` on this tail, each other
+        entry on the nearest matching tail of another character. Returns (placement, forced)
+        or (place, None) when some entry has no partner."""
+        st = self.state
+        pp = self.lib.patches[p]
+        ppos, pdir, ptime = st.place_ports(p, place)
+        D = st.dang
+        forced = [(j, key)]
+        used = {key}
+        src = [pp.port_xz[j]]
+        dst = [row[:2]]
+        dts = [row[3] - pp.port_time[j]]
+        for jj in range(0, 2 * pp.K, 2):
+            if jj == j or not pp.port_open[jj]:
+                if jj != j:
+                    return place, None
+                continue
+            best, bd = None, self.partner_radius
+            for okey, cid in chars_by_key.items():
+                if okey in used:
+                    continue
+                r2 = D.rows[D.where[okey]]
+                if int(r2[7]) != int(pp.port_class[jj]):
+                    continue
+                d = math.hypot(r2[0] - ppos[jj, 0], r2[1] - ppos[jj, 1])
+                dh = abs((r2[2] - pdir[jj] + math.pi) % (2 * math.pi) - math.pi)
+                if d < bd and abs(r2[3] - ptime[jj]) < self.partner_time and dh < math.radians(self.partner_dir):
+                    best, bd = okey, d
+            if best is None:
+                return place, None
+            used.add(best)
+            forced.append((jj, best))
+            r2 = D.rows[D.where[best]]
+            src.append(pp.port_xz[jj])
+            dst.append(r2[:2])
+            dts.append(r2[3] - pp.port_time[jj])
+        src, dst = np.array(src), np.array(dst)
+        cs_, cd = src.mean(0), dst.mean(0)
+        a, b = src - cs_, dst - cd
+        # heading th with rotate_xz(a, th) ~ b: maximise sum b . R a
+        num = np.sum(a[:, 1] * b[:, 0] - a[:, 0] * b[:, 1])
+        den = np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])
+        th = math.atan2(num, den)
+        # keep the heading close to the aligned one (the tail's direction must still fit)
+        dth = (th - place[2] + np.pi) % (2 * np.pi) - np.pi
+        th = place[2] + dth
+        pos = cd - _rot(cs_, th)
+        return (float(pos[0]), float(pos[1]), float(th), float(np.mean(dts))), forced
+
+    def _forget_old(self):
+        """Drop instances whose motion is entirely in the past from the index and tables."""
+        st = self.state
+        tails = {k[0] for k in self.tail}
+        old = [iid for iid, inst in st.inst.items() if iid not in tails and inst.time.max() * self.fps < self.frame - 2]
+        for iid in old:
+            inst = st.inst.pop(iid)
+            st.index.remove_owner(iid)
+            if self.record:
+                self.archive.append(inst)
+            for jj, link in enumerate(inst.links):
+                if link is None:
+                    if (iid, jj) in st.dang.where:
+                        st.dang.remove((iid, jj))
+                else:
+                    oi, oj = link
+                    if oi in st.inst:
+                        st.inst[oi].links[oj] = None
+            self._owner_chars.pop(iid, None)
+            self.stats["pruned"] += 1
+
+    # -- the tick --------------------------------------------------------------------------------
+    def step(self, t: float | None = None, dt: float | None = None) -> None:
+        """Advance the clock to ``t`` (or by ``dt``; default one frame) and fill the horizon."""
+        if t is None:
+            t = self.t + (dt if dt is not None else 1.0 / self.fps)
+        self.t = float(t)
+        self.frame = int(round(self.t * self.fps))
+        t0 = _time.perf_counter()
+        self._yields = 0
+        if self.n:
+            need = self.tail_time < self.t + self.horizon
+            urgent_t = self.t + 3.0 / self.fps
+            done = 0
+            per = np.zeros(self.n, np.int64)
+            while need.any():
+                cid = int(np.flatnonzero(need)[np.argmin(self.tail_time[need])])
+                if self.tail_time[cid] >= urgent_t and (done >= self.max_per_tick or (
+                        self.budget is not None and done and _time.perf_counter() - t0 > self.budget)):
+                    self.stats["deferred"] += 1
+                    break
+                self._extend(cid)
+                done += 1
+                per[cid] += 1
+                # a character retracted by others' yields comes back next tick unless urgent
+                need = (self.tail_time < self.t + self.horizon) & ((per < 3) | (self.tail_time < urgent_t))
+        self.last_tick_ms = 1000.0 * (_time.perf_counter() - t0)
+        self._tick += 1
+        if self._tick % 30 == 0:
+            self._forget_old()
+
+    # -- playback (vectorized over characters) ---------------------------------------------------------
+    def _slot(self, frame=None):
+        q = self.frame if frame is None else int(frame)
+        slot = q % RING
+        ok = self.ring_q[:, slot] == q
+        return slot, ok
+
+    def root_states(self, frame=None) -> np.ndarray:
+        """(C, 3) x, z, heading of every character at the clock frame (NaN if not buffered)."""
+        slot, ok = self._slot(frame)
+        out = self.ring_root[:, slot].copy()
+        out[~ok] = np.nan
+        return out
+
+    def pose_refs(self, frame=None):
+        """(frames_a (C,), frames_b (C,), blend (C,), root (C, 3)) into the library's flat pose
+        tables (``library.frame_rotations`` / ``frame_height``)."""
+        slot, ok = self._slot(frame)
+        return self.ring_ab[:, slot, 0], self.ring_ab[:, slot, 1], self.ring_w[:, slot], self.ring_root[:, slot]
+
+    def poses(self, frame=None):
+        """Root positions (C, 3) and local rotations (C, J, 4) (entry 0 = root world rotation)."""
+        from ..crowd.tracks import evaluate_poses
+        a, b, w, root = self.pose_refs(frame)
+        return evaluate_poses(self.library, a, b, w, root)
+
+    def result(self):
+        """Everything committed so far as a :class:`~runtime.tiling.result.TilingResult` (region:
+        the box around all motion plus 1 m, time 0 .. now) for the checker or a bake
+        (``record=True``)."""
+        from .result import TilingResult
+        if not self.record:
+            raise RuntimeError("InteractiveTiling(record=False) keeps no history")
+        insts = sorted(self.archive + list(self.state.inst.values()), key=lambda i: i.id)
+        pos = {i.id: k for k, i in enumerate(insts)}
+        links = []
+        for k, inst in enumerate(insts):
+            for j, l in enumerate(inst.links):
+                if l is not None and j % 2 == 1 and l[0] in pos:
+                    links.append((k, j // 2, pos[l[0]], l[1] // 2))
+        allxz = np.concatenate([i.xz for i in insts]) if insts else np.zeros((1, 2))
+        lo, hi = np.floor(allxz.min(0)) - 1.0, np.ceil(allxz.max(0)) + 1.0
+        reg = Region(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]), 0.0, self.t)
+        return TilingResult(self.library, reg, [i.p for i in insts], [i.place for i in insts], [i.fixed for i in insts],
+                            [i.xz for i in insts], [i.heading for i in insts], [i.time for i in insts],
+                            np.array(links, np.int64).reshape(-1, 4), self.state.obstacles, [], self.fps,
+                            {"stats": dict(self.stats)})
+
+    def tracks(self) -> list[CharacterTrack]:
+        """One track per character from its first frame to the last committed one (``record``)."""
+        if not self.record:
+            raise RuntimeError("InteractiveTiling(record=False) keeps no history")
+        out = []
+        for cid in range(self.n):
+            h = self.hist[cid]
+            if not h:
+                continue
+            q = np.concatenate([x[0] for x in h])
+            order = np.argsort(q, kind="stable")
+            q = q[order]
+            keep = np.r_[True, q[1:] != q[:-1]]
+            sel = order[keep]
+            fa = np.concatenate([x[1] for x in h])[sel]
+            fb = np.concatenate([x[2] for x in h])[sel]
+            w = np.concatenate([x[3] for x in h])[sel]
+            root = np.concatenate([x[4] for x in h])[sel]
+            segs = [(x[5], x[6], int(x[0][0])) for x in h]
+            out.append(CharacterTrack(fa, fb, w.astype(np.float32), root, int(q[keep][0]), segments=segs))
+        return out
