@@ -54,14 +54,18 @@ def concat_tracks(parts: list[Track], drop_shared_first: bool = True) -> Track:
 def evaluate_poses(graph, frames_a, frames_b, frames_t, root):
     """Root positions (..., 3) and local rotations (..., J, 4) (entry 0 = root world rotation)
     for any leading shape (characters, frames): gather library frames, slerp, place the root."""
-    t = np.asarray(frames_t, dtype=np.float64)
-    rot = graph.frame_rotations[frames_a].astype(np.float64)
-    # most shown frames are library frames (t == 0): slerp only the in-between ones
+    t = np.asarray(frames_t, dtype=np.float32)
+    rot = graph.frame_rotations[frames_a]                 # float32 (a copy: fancy indexing)
+    # library frames shown as they are (t == 0) need no slerp; the rest slerp in float32
     mid = t != 0.0
-    if mid.any():
+    if mid.all():
+        rot = quat.slerp(rot, graph.frame_rotations[frames_b], np.broadcast_to(t[..., None], rot.shape[:-1]))
+    elif mid.any():
         ra = rot[mid]
-        rb = graph.frame_rotations[np.asarray(frames_b)[mid]].astype(np.float64)
+        rb = graph.frame_rotations[np.asarray(frames_b)[mid]]
         rot[mid] = quat.slerp(ra, rb, np.broadcast_to(t[mid][..., None], ra.shape[:-1]))
+    rot = rot.astype(np.float64)
+    t = t.astype(np.float64)
     h = graph.frame_height[frames_a] * (1 - t) + graph.frame_height[frames_b] * t
     rot[..., 0, :] = quat.mul(quat.from_yaw(root[..., 2]), rot[..., 0, :])
     pos = np.stack([root[..., 0], h, root[..., 1]], axis=-1)
