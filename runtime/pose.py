@@ -17,23 +17,24 @@ Two evaluators, both vectorized over characters and joints (no per-character Pyt
 * **Table** (the default for positions, :class:`PoseTable`): forward kinematics is linear in
   the root's rigid transform, so the joint positions of every library frame are computed once,
   in the root's heading-free frame (root at ``(0, height, 0)``), with the exact evaluator. A
-  character's joints are then
+  character's joints on a tick are then
 
       p_j = R_y(heading) * ((1 - t) L[a]_j + t L[b]_j) + (x, 0, z)
 
-  and the tick interpolation is ``(1 - alpha) * pose_prev + alpha * pose_cur`` of these blended
-  root-local positions. Blending positions instead of rotations differs from the exact path only
-  by the chord-versus-arc gap of one frame's (or one tick's) joint motion, ``L * theta^2 / 8``
-  for a limb of length ``L`` turning ``theta``: for library frames and ticks 1/30 s apart, 1-3 mm
-  typically and under 1.5 cm at worst over the default library (``tests/test_pose.py`` checks
-  both). It is exact (to float32) at ``t, alpha in {0, 1}``. Positions are kept as component
-  planes (3, N, J) so that every operation is one contiguous loop over N * J floats; the
-  (N, J, 3) results are views of those planes.
+  and between ticks the world positions are interpolated, ``(1 - alpha) * p_prev + alpha *
+  p_cur``. Blending positions instead of rotations differs from the exact path only by the
+  chord-versus-arc gap of one frame's (or one tick's) joint motion, ``L * theta^2 / 8`` for a
+  limb (or a joint at distance ``L`` from the root axis, for the root's turn) turning ``theta``:
+  for library frames and ticks 1/30 s apart, 1-3 mm typically and under 1.5 cm at worst over the
+  default library (``tests/test_pose.py`` checks both). It is exact (to float32) at ``t, alpha in
+  {0, 1}``. Positions are kept as component planes (3, N, J) so that every operation is one
+  contiguous loop over N * J floats; the (N, J, 3) results are views of those planes. Placing
+  the poses in the world once per tick leaves two passes per rendered frame.
 
 :class:`PoseBatch` is the render-side state a world keeps: :meth:`PoseBatch.push` once per tick
-(gathers of the frames' positions and of the step to the next frame, a blend), and
-:meth:`PoseBatch.positions` once per rendered frame (an interpolation and the root transform
-over preallocated buffers).
+(gathers of the frames' positions and of the step to the next frame, a blend, the root
+transform), and :meth:`PoseBatch.positions` once per rendered frame (an interpolation over
+preallocated buffers).
 """
 from __future__ import annotations
 
@@ -184,27 +185,28 @@ class Scratch:
 
 def _place(local, root, out, scratch=None):
     """World positions ``R_y(heading) local + (x, 0, z)``; ``local`` and ``out`` are (3, N, J)
-    planes, ``root`` (N, 3). Per-character factors are repeated over joints so every operation
-    is one contiguous loop."""
+    planes (``out`` may be ``local``: placed in place), ``root`` (N, 3). Per-character factors
+    are repeated over joints so every operation is one contiguous loop."""
     _, n, J = local.shape
     ws = scratch if scratch is not None else Scratch()
-    r = root.astype(np.float32)
-    c, s, rep, tmp = (ws.get(k, (n * J,)) for k in ("cos", "sin", "rep", "tmp"))
-    c.reshape(n, J)[...] = np.cos(r[:, 2:3])
-    s.reshape(n, J)[...] = np.sin(r[:, 2:3])
+    c, s, rep, ta, tb = (ws.get(k, (n * J,)) for k in ("cos", "sin", "rep", "tmp", "tmp2"))
+    h = np.asarray(root[:, 2], dtype=np.float64)
+    c.reshape(n, J)[...] = np.cos(h).astype(np.float32)[:, None]
+    s.reshape(n, J)[...] = np.sin(h).astype(np.float32)[:, None]
     lx, ly, lz = (local[k].reshape(-1) for k in range(3))
     ox, oy, oz = (out[k].reshape(-1) for k in range(3))
-    np.multiply(lx, c, out=ox)
-    np.multiply(lz, s, out=tmp)
-    ox += tmp
-    rep.reshape(n, J)[...] = r[:, 0:1]
+    np.multiply(lz, s, out=ta)
+    np.multiply(lx, s, out=tb)
+    np.multiply(lx, c, out=ox)          # lx is not read after this (out may be local)
+    ox += ta
+    rep.reshape(n, J)[...] = np.asarray(root[:, 0], dtype=np.float32)[:, None]
     ox += rep
     np.multiply(lz, c, out=oz)
-    np.multiply(lx, s, out=tmp)
-    oz -= tmp
-    rep.reshape(n, J)[...] = r[:, 1:2]
+    oz -= tb
+    rep.reshape(n, J)[...] = np.asarray(root[:, 1], dtype=np.float32)[:, None]
     oz += rep
-    oy[...] = ly
+    if oy is not ly and not np.shares_memory(oy, ly):
+        oy[...] = ly
     return out
 
 
@@ -233,15 +235,14 @@ def evaluate_world(graph, frames_a, frames_b, frames_t, root, prev=None, alpha=1
         return (gr, gp) if rotations else gp
     table = PoseTable.for_graph(graph)
     local = table.blend(cur.frames_a, cur.frames_b, cur.frames_t)
-    r = cur.root
+    out = _place(local, cur.root, np.empty_like(local))
     a = np.asarray(alpha, dtype=np.float32)
     if p is not None and not (a.ndim == 0 and a == 1.0):
         lp = table.blend(p.frames_a, p.frames_b, p.frames_t)
-        local -= lp
-        local *= a[None, :, None] if a.ndim else a
-        local += lp
-        r = interpolate_root(p.root, cur.root, alpha)
-    out = _place(local, r, np.empty_like(local))
+        wp = _place(lp, p.root, lp)
+        out -= wp
+        out *= a[None, :, None] if a.ndim else a
+        out += wp
     return out.transpose(1, 2, 0)
 
 
@@ -268,11 +269,12 @@ def _exact(graph, cur: PoseState, prev: PoseState | None, alpha):
 class PoseBatch:
     """The last two ticks' poses of N characters, for rendering between ticks.
 
-    ``push(state)`` after every tick (its cost: one gather and a blend per character);
-    ``positions(alpha)`` per rendered frame. ``push(state, keep=idx)`` handles spawned and
-    removed characters: ``idx[i]`` is the index character ``i`` had in the previously pushed
-    state, or -1 for a new character (drawn at its current pose, not interpolated).
-    Without ``keep``, a change of N restarts interpolation (both ticks = the new state).
+    ``push(state)`` after every tick (its cost: one gather and a blend per character, and the
+    placement in the world); ``positions(alpha)`` per rendered frame (two passes).
+    ``push(state, keep=idx)`` handles spawned and removed characters: ``idx[i]`` is the index
+    character ``i`` had in the previously pushed state, or -1 for a new character (drawn at its
+    current pose, not interpolated). Without ``keep``, a change of N restarts interpolation
+    (both ticks = the new state).
 
     :meth:`positions` returns a view of an internal buffer that the next call overwrites.
     """
@@ -283,12 +285,11 @@ class PoseBatch:
         self.num_joints = self.table.num_joints
         self.prev: PoseState | None = None
         self.cur: PoseState | None = None
-        self._lc = None     # current root-local planes (3, N, J)
-        self._lp = None     # previous
+        self._wc = None     # current tick's world positions, planes (3, N, J)
+        self._wp = None     # previous tick's
         self._d = None      # current - previous
-        self._buf = None    # interpolated local
-        self._out = None    # world positions, planes (3, N, J)
-        self._spare = None  # the buffer the next push blends into
+        self._out = None    # interpolated world positions
+        self._spare = None  # the buffer the next push places into
         self._ws = Scratch()
 
     def __len__(self):
@@ -296,7 +297,7 @@ class PoseBatch:
 
     def reset(self) -> None:
         self.prev = self.cur = None
-        self._lc = self._lp = self._d = None
+        self._wc = self._wp = self._d = None
 
     def push(self, state, keep=None) -> None:
         st = _as_state(state).copy()
@@ -304,11 +305,12 @@ class PoseBatch:
         n = len(st)
         J = self.num_joints
         spare = self._spare if self._spare is not None and self._spare.shape == (3, n, J) else None
-        lc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
+        wc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
+        _place(wc, st.root, wc, self._ws)
         if self.cur is None or (keep is None and len(self.cur) != n):
-            prev, lp = st.copy(), lc.copy()
+            prev, wp = st.copy(), wc.copy()
         elif keep is None:
-            prev, lp = self.cur, self._lc
+            prev, wp = self.cur, self._wc
         else:
             keep = np.asarray(keep, dtype=np.int64).reshape(-1)
             if len(keep) != n:
@@ -318,23 +320,22 @@ class PoseBatch:
             old = keep >= 0
             src = np.where(old, keep, 0)
             prev = self.cur.take(src) if len(self.cur) else st.copy()
-            lp = self._lc[:, src] if len(self.cur) else lc.copy()
+            wp = self._wc[:, src] if len(self.cur) else wc.copy()
             new = np.flatnonzero(~old)
             prev.frames_a[new] = st.frames_a[new]
             prev.frames_b[new] = st.frames_b[new]
             prev.frames_t[new] = st.frames_t[new]
             prev.root[new] = st.root[new]
-            lp[:, new] = lc[:, new]
+            wp[:, new] = wc[:, new]
         self.prev, self.cur = prev, st
-        old_lp = self._lp
-        self._lp, self._lc = lp, lc
-        # the previous tick's buffer is free again (unless it is still in use as lp)
-        self._spare = old_lp if old_lp is not None and old_lp is not lp and old_lp is not lc else None
-        if self._out is None or self._out.shape[1] != n:
-            self._buf = np.empty_like(lc)
-            self._out = np.empty_like(lc)
-            self._d = np.empty_like(lc)
-        np.subtract(lc, lp, out=self._d)
+        old_wp = self._wp
+        self._wp, self._wc = wp, wc
+        # the previous tick's buffer is free again (unless it is still in use as wp)
+        self._spare = old_wp if old_wp is not None and old_wp is not wp and old_wp is not wc else None
+        if self._out is None or self._d is None or self._out.shape[1] != n:
+            self._out = np.empty_like(wc)
+            self._d = np.empty_like(wc)
+        np.subtract(wc, wp, out=self._d)
 
     def roots(self, alpha: float = 1.0) -> np.ndarray:
         """Interpolated planar roots (N, 3): x, z, heading."""
@@ -351,14 +352,13 @@ class PoseBatch:
             return np.zeros((0, self.num_joints, 3), dtype=np.float32)
         alpha = float(min(max(alpha, 0.0), 1.0))
         if alpha >= 1.0:
-            local = self._lc
+            out = self._wc
         elif alpha <= 0.0:
-            local = self._lp
+            out = self._wp
         else:
-            local = np.multiply(self._d, np.float32(alpha), out=self._buf)
-            local += self._lp
-        _place(local, self.roots(alpha), self._out, self._ws)
-        return self._out.transpose(1, 2, 0)
+            out = np.multiply(self._d, np.float32(alpha), out=self._out)
+            out += self._wp
+        return out.transpose(1, 2, 0)
 
     def transforms(self, alpha: float = 1.0):
         """Exact global rotations (N, J, 4) and positions (N, J, 3), float64 (slerp + FK)."""

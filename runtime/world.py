@@ -21,16 +21,28 @@ given at run time is planned from a *hand-off* on the character's buffered futur
 point at least ``latency`` ahead where the character stands exactly on a graph node (the end
 of an idle loop, or the end of the segment it is playing). The planner is the generator of
 :class:`~runtime.crowd.synthesis.SegmentPlanner`; it runs under the per-tick budget and
-resumes on the next tick. When it finishes, its segment replaces the buffer after the
-hand-off. Planned characters are moving obstacles for later plans (a space-time index of
-buffered frames). A plan that raises or fails emits a ``warning`` event; the character keeps
-playing what it has. Nothing a character does can make :meth:`World.step` raise.
+resumes on the next tick. Each ``next()`` is a *step* whose kind is where the generator is
+suspended; a step starts only when its predicted duration (:class:`StepCosts`) fits in what
+is left of the budget, and the first step of a tick always runs. When the plan is finished,
+it replaces the buffer after the hand-off; if the hand-off has already played but the
+character idled in place since, the same motion starts at a later idle-loop end (tested
+again for collisions), else it is planned again.
 
-Limits: ``MAX_BUFFER`` frames (60 s) per character; a plan whose hand-off has already played
-when it finishes is planned again from a later hand-off.
+**Collisions.** A plan is tested against every other character's buffered future: planned
+motion lives in a space-time index of bounding cylinders, idling in :class:`IdleStretches`
+(a disc per stretch of idle clips), and beyond its buffer every character counts as standing
+where it ends (it may never be planned again). A goal where someone stands waits behind the
+rest of the queue a few times; a plan whose end would stand in someone's way is not used.
+A plan that is not within the adjustment tolerance or collides is not played: the character
+gets a ``warning`` event and keeps idling (a collided plan is tried once more when the queue
+is short). Nothing a character does can make :meth:`World.step` raise.
+
+Limits: ``MAX_BUFFER`` frames (60 s) per character, minus one kept for interpolation.
 """
 from __future__ import annotations
 
+import heapq
+import inspect
 import math
 import time
 from collections import deque
@@ -42,16 +54,123 @@ import numpy as np
 from .crowd.scenario import BOX_REACH
 from .crowd.scheduler import idle_track
 from .crowd.spacetime import SpaceTimeIndex
-from .crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams
+from .crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .crowd.tracks import Track, evaluate_poses
 from .motion.fk import forward_kinematics
 from .motion.graph import MotionGraph
+from .pose import PoseBatch, PoseState
 
-__all__ = ["World", "CharacterState", "Event", "MAX_BUFFER"]
+__all__ = ["World", "CharacterState", "Event", "StepCosts", "IdleStretches", "MAX_BUFFER"]
 
 MAX_BUFFER = 1800          # frames of future per character (60 s at 30 Hz)
 REFILL_BELOW = 45          # frames: append idle when fewer than this remain
+REFILL_URGENT = 10         # frames: ... and always on this tick when fewer than this remain
+REFILL_PER_TICK = 6        # characters refilled per tick at least (more when many run low)
+IDLE_SECONDS = 4.0         # idle appended per refill
+MAX_DEFER = 3              # times a goal on a spot where someone stands waits for later planning
+MAX_RETRY = 1              # times a plan that collided with other characters is tried again later
+RETRY_QUEUE = 8            # ... when fewer than this many characters wait for the planner
 LATENCY = 12               # frames between "now" and the earliest hand-off
+
+
+_FINISH = ("use the finished plan",)
+
+
+def _step_kind(job):
+    """Where a planner generator is suspended: (function, line) of the innermost generator
+    of its ``yield from`` chain — the kind of the step its next ``next()`` runs."""
+    g = job
+    while getattr(g, "gi_yieldfrom", None) is not None and hasattr(g.gi_yieldfrom, "gi_frame"):
+        g = g.gi_yieldfrom
+    f = g.gi_frame
+    if f is None:
+        return ("finished",)
+    if g is job and inspect.getgeneratorstate(g) == inspect.GEN_CREATED:
+        return ("created",)
+    return (g.gi_code.co_name, f.f_lineno)
+
+
+class StepCosts:
+    """Predicted duration of a planner step, per kind: running averages (rate ``rate``) of
+    the duration and of its absolute deviation from the average, ``mean + k * deviation``, and
+    at least a decaying maximum (each new duration of the kind multiplies it by ``decay``): some
+    kinds are usually short and now and then long (a seed's last edge, a splice that is also
+    collision-tested), and such a kind should not start late in a tick. Unknown kinds are
+    predicted as the largest known prediction (or ``default`` s)."""
+
+    def __init__(self, k: float = 3.0, rate: float = 0.2, decay: float = 0.97, default: float = 0.002):
+        self.k, self.rate, self.decay, self.default = k, rate, decay, default
+        self._m: dict = {}
+
+    def predict(self, kind) -> float:
+        m = self._m.get(kind)
+        if m is None:
+            return max((max(a + self.k * d, x) for a, d, x in self._m.values()), default=self.default)
+        return max(m[0] + self.k * m[1], m[2])
+
+    def record(self, kind, seconds: float) -> None:
+        m = self._m.get(kind)
+        if m is None:
+            self._m[kind] = [seconds, 0.5 * seconds, seconds]
+            return
+        m[1] += self.rate * (abs(seconds - m[0]) - m[1])
+        m[0] += self.rate * (seconds - m[0])
+        m[2] = max(seconds, m[2] * self.decay)
+
+
+class IdleStretches:
+    """Where characters stand idling, as discs over frame intervals: rows (owner, first frame,
+    last frame, x, z, radius). Idle clips are appended to every character all the time; kept
+    out of the space-time index (which then holds only planned motion), they cost one row per
+    stretch instead of one sample per frame. The radius covers the idle loop's bounding
+    cylinders and its root's excursion (:meth:`World._stay_radii`). Queries are vectorized over
+    samples and the rows near them."""
+
+    def __init__(self):
+        self.rows = np.zeros((0, 6))
+
+    def add(self, owner, f0, f1, x, z, r) -> None:
+        rows = self.rows
+        own = np.flatnonzero(rows[:, 0] == owner)
+        if len(own):
+            last = own[np.argmax(rows[own, 2])]
+            if rows[last, 2] >= f0 - 1 and abs(rows[last, 3] - x) < 1e-6 and abs(rows[last, 4] - z) < 1e-6:
+                rows[last, 2] = max(rows[last, 2], f1)        # the same spot: extend
+                rows[last, 5] = max(rows[last, 5], r)
+                return
+        self.rows = np.vstack([rows, [[owner, f0, f1, x, z, r]]])
+
+    def cut(self, owner, frame) -> None:
+        """Forget ``owner``'s stretches from ``frame`` on (its buffer is replaced there)."""
+        rows = self.rows
+        mine = rows[:, 0] == owner
+        rows[mine & (rows[:, 2] >= frame), 2] = frame - 1
+        self.rows = rows[~mine | (rows[:, 2] >= rows[:, 1])]
+
+    def remove(self, owner) -> None:
+        self.rows = self.rows[self.rows[:, 0] != owner]
+
+    def forget_before(self, frame) -> None:
+        self.rows = self.rows[self.rows[:, 2] >= frame]
+
+    def overlaps(self, frames, xz, radius, ignore_owner=None) -> np.ndarray:
+        n = len(frames)
+        hit = np.zeros(n, dtype=bool)
+        rows = self.rows
+        if n == 0 or len(rows) == 0:
+            return hit
+        reach = float(np.max(radius)) + (rows[:, 5].max() if len(rows) else 0.0)
+        lo, hi = xz.min(axis=0) - reach, xz.max(axis=0) + reach
+        m = ((rows[:, 3] > lo[0]) & (rows[:, 3] < hi[0]) & (rows[:, 4] > lo[1]) & (rows[:, 4] < hi[1])
+             & (rows[:, 2] >= frames.min()) & (rows[:, 1] <= frames.max()))
+        if ignore_owner is not None:
+            m &= rows[:, 0] != ignore_owner
+        if not m.any():
+            return hit
+        r = rows[m]
+        inside = (frames[:, None] >= r[None, :, 1]) & (frames[:, None] <= r[None, :, 2])
+        d = np.hypot(xz[:, None, 0] - r[None, :, 3], xz[:, None, 1] - r[None, :, 4])
+        return np.any(inside & (d < radius[:, None] + r[None, :, 5]), axis=1)
 
 
 class CharacterState(Enum):
@@ -75,6 +194,9 @@ class _Pending:
     kind: str               # "go_to" | "sit" | "stand" | "pick_up" | "put_down"
     marker: str | None = None
     label: str = ""
+    start_frame: int = -1   # clock frame where its planned segment starts (set when planned)
+    defers: int = 0         # times it waited because someone stood on the goal
+    retries: int = 0        # times it was planned again after colliding with others
 
 
 @dataclass
@@ -87,6 +209,7 @@ class _Char:
     job: object = None
     job_goal: _Pending | None = None
     job_handoff: Config | None = None
+    job_window: tuple | None = None
     arrivals: list = field(default_factory=list)      # (abs frame, _Pending) still to announce
     carrying: str | None = None
 
@@ -107,10 +230,11 @@ class World:
         self.fps = 1.0 / self.dt
         self.budget = budget_ms / 1000.0
         # online planning gives up sooner than the paper's offline N_max = 1000: a character
-        # that cannot be planned must not hold the queue for seconds
-        # and each step is kept small (n_m perturbations per iteration) so that one step fits
-        # well inside the per-tick budget
-        self.params = params or SynthesisParams(fps=self.fps, n_max=150, n_m=48, k_m=16, sweep=24, backward_idle=True)
+        # that cannot be planned must not hold the queue for seconds (N_max 60 instead of 150
+        # halved the planning time per used plan in bench/runtime_load.py, losing ~10% of the
+        # plans), and each step is kept small (n_m perturbations per iteration) so that one
+        # step fits well inside the per-tick budget
+        self.params = params or SynthesisParams(fps=self.fps, n_max=60, n_m=48, k_m=16, sweep=24, backward_idle=True)
         self.lib = MotionLibrary(self.graph, self.params)
         self.rng = np.random.default_rng(seed)
         self.frame = 0
@@ -124,16 +248,29 @@ class World:
         self._slots: list = []
         self._plan_queue: deque = deque()
         self._active: _Char | None = None
+        self.stretches = IdleStretches()  # where characters stand idling (kept out of the index)
         self.index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 2 * (self.lib.params.margin + self.lib.params.seed_margin) + 0.1))
-        self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "characters": 0, "queue": 0, "ticks": 0}
+        self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "plan_cpu_ms": 0.0, "plan_steps": 0, "characters": 0,
+                      "queue": 0, "ticks": 0, "plans_done": 0, "plans_failed": 0,
+                      "plans_shifted": 0, "plans_redone": 0, "plans_retried": 0}
         self.selected = None
-        self._step_ema = 0.0005         # running average of a planner step's duration (s)
+        self._steps = StepCosts()        # predicted duration of the planner's next step, per kind
+        self._done = None                # (character, result) of a finished plan, applied as its own step
+        self._idle_cache: dict = {}
+        self._due: list = []             # heap of (arrival frame, sequence, character)
+        self._seq = 0
+        self._loop_cache: dict = {}
         self._box_place: dict = {}     # boxes put down somewhere else: path -> (x, z, heading)
+        self._pose_batch = None          # render-side poses (joint_positions)
+        self._pose_at = None
+        self._pose_slots = None
         self._static = None
         if self.env is not None and (len(self.env.polygons) or len(self.env.circles)):
             sdf = self.env.sdf(resolution=0.05, margin=2.0)
             self._static = lambda xz: sdf.sample(xz) - sdf.max_error
         self._alloc(capacity)
+        self._stay_r = self._stay_radii()
+        self._still = self._still_nodes()
 
     # ------------------------------------------------------------------ storage
     def _alloc(self, cap):
@@ -146,36 +283,70 @@ class World:
         self.buf_t = np.zeros((cap, MAX_BUFFER), dtype=np.float32)
         self.buf_root = np.zeros((cap, MAX_BUFFER, 3))
         self.tail_node = np.zeros(cap, dtype=np.int64)
+        self._indexed = np.zeros(cap, dtype=bool)         # the slot's frames are in the space-time index
+        self.buf_idle = np.zeros((cap, MAX_BUFFER), dtype=bool)   # frame written as idle (not indexed)
         self._slots = [None] * cap
 
     def _grow(self):
-        old = (self.active, self.head, self.tail, self.buf_a, self.buf_b, self.buf_t, self.buf_root, self.tail_node, self._slots)
+        old = (self.active, self.head, self.tail, self.buf_a, self.buf_b, self.buf_t, self.buf_root, self.tail_node,
+               self._slots, self._indexed, self.buf_idle)
         n = self.cap
         self._alloc(n * 2)
         self.active[:n], self.head[:n], self.tail[:n] = old[0], old[1], old[2]
         self.buf_a[:n], self.buf_b[:n], self.buf_t[:n], self.buf_root[:n] = old[3], old[4], old[5], old[6]
         self.tail_node[:n] = old[7]
         self._slots[:n] = old[8]
+        self._indexed[:n] = old[9]
+        self.buf_idle[:n] = old[10]
 
-    def _write(self, c: _Char, track: Track, from_frame: int):
+    def _write(self, c: _Char, track: Track, from_frame: int, idle_radius: float | None = None):
         """Replace the buffer of ``c`` from absolute frame ``from_frame`` with ``track`` (whose
-        first frame is at ``from_frame``)."""
+        first frame is at ``from_frame``). Planned motion goes into the space-time index (the
+        whole buffered future is re-indexed); idle clips (``idle_radius`` given: they stand on
+        the track's first root position) become one idle stretch."""
         s = c.slot
         n = len(track)
-        if from_frame + n - 1 - self.head[s] >= MAX_BUFFER:
-            n = int(MAX_BUFFER - (from_frame - self.head[s]))
+        if from_frame + n - 1 - self.head[s] >= MAX_BUFFER - 1:
+            # the ring keeps the previous frame (head - 1) too, for render interpolation
+            n = int(MAX_BUFFER - 1 - (from_frame - self.head[s]))
             track = track.slice(0, n)
         idx = (from_frame + np.arange(n)) % MAX_BUFFER
+        root = track.root
+        if self._indexed[s]:
+            # headings stay continuous across what is replaced (a plan may be wound 2 pi away)
+            turns = np.round((self.buf_root[s, idx[0], 2] - root[0, 2]) / (2 * math.pi))
+            if turns:
+                root = root.copy()
+                root[:, 2] += 2 * math.pi * turns
+        append = from_frame == self.tail[s] and self._indexed[s]
         self.buf_a[s, idx] = track.frames_a
         self.buf_b[s, idx] = track.frames_b
         self.buf_t[s, idx] = track.frames_t
-        self.buf_root[s, idx] = track.root
+        self.buf_root[s, idx] = root
+        self.buf_idle[s, idx] = idle_radius is not None
         self.tail[s] = from_frame + n - 1
-        c.boundaries = [(f, cfg) for f, cfg in c.boundaries if f < from_frame]
-        # the space-time index holds every character's buffered future
+        c.boundaries = [(f, cfg) for f, cfg in c.boundaries if self.head[s] <= f < from_frame]
+        if not append:
+            self.stretches.cut(s, from_frame)
+        if idle_radius is not None:
+            self.stretches.add(s, from_frame, self.tail[s], float(root[0, 0]), float(root[0, 1]), idle_radius)
+            if append:
+                self._indexed[s] = True
+                return
+        elif append:
+            self._indexed[s] = True
+            frames = np.arange(from_frame + 1, self.tail[s] + 1)   # the shared first frame is indexed
+            self._index_frames(s, frames)
+            return
+        # the space-time index holds every character's buffered planned motion
         self.index.remove_owner(s)
-        f0 = max(int(self.head[s]), 0)
-        frames = np.arange(f0, self.tail[s] + 1)
+        frames = np.arange(max(int(self.head[s]), 0), self.tail[s] + 1)
+        self._index_frames(s, frames[~self.buf_idle[s, frames % MAX_BUFFER]])
+        self._indexed[s] = True
+
+    def _index_frames(self, s, frames):
+        if len(frames) == 0:
+            return
         k = frames % MAX_BUFFER
         rad = np.maximum(self.graph.frame_radius[self.buf_a[s, k]], self.graph.frame_radius[self.buf_b[s, k]])
         self.index.insert(s, frames, self.buf_root[s, k, :2], rad)
@@ -192,19 +363,34 @@ class World:
         loop = self._loop_len(cfg.node)
         want = max(1, int(round(seconds * self.fps)))
         n = (int(math.ceil(want / loop)) * loop if loop else want) + 1
-        self._write(c, idle_track(self.lib, cfg, n), cfg.frame)
+        self._write(c, self._idle(cfg, n), cfg.frame, idle_radius=self._stay_r[cfg.node])
         step = loop if loop else n - 1
         for k in range(step, n, step):
             c.boundaries.append((cfg.frame + k, Config(cfg.node, cfg.x, cfg.z, cfg.heading, cfg.frame + k)))
 
+    def _idle(self, cfg: Config, n: int) -> Track:
+        """:func:`~runtime.crowd.scheduler.idle_track` at ``cfg``: the track at the origin is
+        cached per (node, length) and placed by one composition (the same arithmetic)."""
+        key = (cfg.node, n)
+        base = self._idle_cache.get(key)
+        if base is None:
+            base = idle_track(self.lib, Config(cfg.node, 0.0, 0.0, 0.0, 0), n)
+            self._idle_cache[key] = base
+        root = compose(np.array([cfg.x, cfg.z, cfg.heading])[None], base.root)
+        return Track(base.frames_a, base.frames_b, base.frames_t, root, cfg.frame)
+
     def _loop_len(self, node):
-        g = self.graph
-        loops = np.flatnonzero((g.edge_src == node) & (g.edge_dst == node))
-        if len(loops) == 0:
-            return 0
-        drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
-        e = int(loops[np.argmin(drift)])
-        return int(g.edge_frames[e] - 1)
+        node = int(node)
+        if node not in self._loop_cache:
+            g = self.graph
+            loops = np.flatnonzero((g.edge_src == node) & (g.edge_dst == node))
+            if len(loops) == 0:
+                self._loop_cache[node] = 0
+            else:
+                drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
+                e = int(loops[np.argmin(drift)])
+                self._loop_cache[node] = int(g.edge_frames[e] - 1)
+        return self._loop_cache[node]
 
     # ------------------------------------------------------------------ characters
     @property
@@ -216,9 +402,9 @@ class World:
         ``heading`` (radians, 0 = +Z). Returns its slot."""
         if name in self._chars:
             raise ValueError(f"a character named {name!r} already exists")
-        nodes = self.graph.nodes_with_label(pose)
-        if len(nodes) == 0:
+        if len(self.graph.nodes_with_label(pose)) == 0:
             raise ValueError(f"pose {pose!r} is not a node label of the library ({self.graph.node_labels_all()})")
+        nodes = self.pose_nodes(pose)
         free = np.flatnonzero(~self.active)
         if len(free) == 0:
             self._grow()
@@ -233,13 +419,17 @@ class World:
         self.head[s] = self.frame
         self.tail[s] = self.frame
         self.tail_node[s] = node
-        self.buf_root[s, self.frame % MAX_BUFFER] = (position[0], position[1], heading)
         first = self.graph.edge_start[self.graph.out_edges(node)[0]] if len(self.graph.out_edges(node)) else 0
-        self.buf_a[s, self.frame % MAX_BUFFER] = first
-        self.buf_b[s, self.frame % MAX_BUFFER] = first
-        self.buf_t[s, self.frame % MAX_BUFFER] = 0.0
+        for f in (self.frame - 1, self.frame):     # the previous frame too: interpolation before the first tick
+            self.buf_root[s, f % MAX_BUFFER] = (position[0], position[1], heading)
+            self.buf_a[s, f % MAX_BUFFER] = first
+            self.buf_b[s, f % MAX_BUFFER] = first
+            self.buf_t[s, f % MAX_BUFFER] = 0.0
         c.boundaries.append((self.frame, Config(node, float(position[0]), float(position[1]), float(heading), self.frame)))
-        self._append_idle(c)
+        # characters spawned together get idle futures of different lengths, so that their
+        # refills spread over many ticks
+        loop = self._loop_len(node) or 1
+        self._append_idle(c, 3.0 + (s % 7) * loop / self.fps)
         return s
 
     def remove(self, name: str) -> None:
@@ -247,8 +437,12 @@ class World:
         self.active[c.slot] = False
         self._slots[c.slot] = None
         self.index.remove_owner(c.slot)
+        self.stretches.remove(c.slot)
+        self._indexed[c.slot] = False
         if self._active is c:
             self._active = None
+        if self._done is not None and self._done[0] is c:
+            self._done = None
         if c in self._plan_queue:
             self._plan_queue.remove(c)
 
@@ -305,9 +499,10 @@ class World:
             self._emit("warning", name, message=f"{kind}: no character named {name!r}")
             return
         try:
-            g = self.graph
             if kind == "go_to":
-                goal = Goal(pos, heading, None, tuple(arrive) if arrive else None, label="go_to")
+                # arrive standing where the character can wait still (not on a walking hub,
+                # whose self loops are walk cycles)
+                goal = Goal(pos, heading, self.pose_nodes("stand"), tuple(arrive) if arrive else None, label="go_to")
                 pend = _Pending(goal, "go_to")
                 if not marker:      # replace: drop goals nobody has started planning (queue=False)
                     keep = 1 if c.state is CharacterState.PLANNING and c.goals else 0
@@ -315,18 +510,18 @@ class World:
                         c.goals.pop()
             elif kind == "sit":
                 m = self._marker(marker, "seat")
-                pend = _Pending(Goal(m.position.copy(), m.heading, g.nodes_with_label("sit")), "sit", marker)
+                pend = _Pending(Goal(m.position.copy(), m.heading, self.pose_nodes("sit")), "sit", marker)
             elif kind == "stand":
                 r = self.buf_root[c.slot, self.tail[c.slot] % MAX_BUFFER]
                 fwd = np.array([math.sin(r[2]), math.cos(r[2])])
-                pend = _Pending(Goal(r[:2] + 0.45 * fwd, float(r[2]), g.nodes_with_label("stand")), "stand")
+                pend = _Pending(Goal(r[:2] + 0.45 * fwd, float(r[2]), self.pose_nodes("stand")), "stand")
             elif kind == "pick_up":
                 m = self._marker(marker, "box")
                 fwd = np.array([math.sin(m.heading), math.cos(m.heading)])
-                pend = _Pending(Goal(m.position + BOX_REACH * fwd, m.heading + math.pi, g.nodes_with_label("carry")),
+                pend = _Pending(Goal(m.position + BOX_REACH * fwd, m.heading + math.pi, self.pose_nodes("carry")),
                                 "pick_up", marker)
             elif kind == "put_down":
-                pend = _Pending(Goal(pos, heading, g.nodes_with_label("stand")), "put_down")
+                pend = _Pending(Goal(pos, heading, self.pose_nodes("stand")), "put_down")
             else:
                 raise ValueError(f"unknown command {kind}")
         except Exception as e:   # a bad command never stops the loop
@@ -364,93 +559,264 @@ class World:
         c.job = planner.run(start, goal, self.rng, owner=c.slot, name=c.name)
         c.job_goal = pend
         c.job_handoff = start
+        c.job_window = goal.window
         c.state = CharacterState.PLANNING
 
     def _collide(self, frames, xz, radius, owner):
         """Samples that hit another character: its buffered future (space-time index), and,
-        for characters with nothing left to plan, beyond their last buffered frame the place
-        where they will stand idling. (Vectorized over samples and characters.)"""
-        hit = self.index.overlaps(frames, xz, radius, ignore_owner=owner)
-        # characters with goals still to plan will move away: only the others stay put
-        s = np.array([i for i in np.flatnonzero(self.active)
-                      if i != owner and not self._slots[i].goals], dtype=np.int64)
+        beyond its last buffered frame, the place where it stands idling. Every character
+        counts as standing there, also one with goals still to plan: its plan may fail or wait
+        long in the queue, and then it keeps idling there. (A goal on such a spot waits, see
+        :meth:`_next_job`.) Vectorized over samples and nearby characters."""
+        hit = self._occupied(frames, xz, radius, owner)
+        if len(frames) == 0:
+            return hit
+        others = self.active & (self.tail < frames.max())
+        if 0 <= owner < self.cap:
+            others[owner] = False
+        s = np.flatnonzero(others)
         if len(s) == 0:
             return hit
         txz = self.buf_root[s, self.tail[s] % MAX_BUFFER, :2]
-        late = frames[:, None] > self.tail[s][None, :]
-        if not late.any():
+        reach = float(radius.max()) + self._stay_r.max()
+        lo, hi = xz.min(axis=0) - reach, xz.max(axis=0) + reach
+        m = (txz[:, 0] > lo[0]) & (txz[:, 0] < hi[0]) & (txz[:, 1] > lo[1]) & (txz[:, 1] < hi[1])
+        if not m.any():
             return hit
-        near = (np.abs(xz[:, None, 0] - txz[None, :, 0]) < 1.5) & (np.abs(xz[:, None, 1] - txz[None, :, 1]) < 1.5) & late
-        q, k = np.nonzero(near)
-        if len(q):
-            d = np.hypot(xz[q, 0] - txz[k, 0], xz[q, 1] - txz[k, 1])
-            hit[q[d < radius[q] + 0.35]] = True
+        s, txz = s[m], txz[m]
+        sr = self._stay_r[self.tail_node[s]]
+        late = frames[:, None] > self.tail[s][None, :]
+        d = np.hypot(xz[:, None, 0] - txz[None, :, 0], xz[:, None, 1] - txz[None, :, 1])
+        hit |= np.any(late & (d < radius[:, None] + sr[None, :]), axis=1)
         return hit
+
+    def _stay_radii(self) -> np.ndarray:
+        """Per node: the largest bounding radius while idling on it (its idle loop's frames,
+        or the node's pose when it has none), plus how far the idle loop's root strays from
+        the node's spot."""
+        g = self.graph
+        r = np.zeros(g.num_nodes)
+        for n in range(g.num_nodes):
+            tr = self._idle(Config(n, 0.0, 0.0, 0.0, 0), max(self._loop_len(n), 1) + 1)
+            r[n] = (max(g.frame_radius[tr.frames_a].max(), g.frame_radius[tr.frames_b].max())
+                    + np.hypot(tr.root[:, 0], tr.root[:, 1]).max())
+        return r + self.params.margin
+
+    def _still_nodes(self) -> np.ndarray:
+        """Per node: whether idling on it stands still — it has a self-loop clip whose drift
+        (removed by :func:`idle_track` as a ramp) is within the per-frame adjustment tolerance
+        eps. A walking hub's self loops are walk cycles: idling there would walk on the spot."""
+        g = self.graph
+        ep, eh, _ = self.params.eps
+        still = np.zeros(g.num_nodes, dtype=bool)
+        for n in range(g.num_nodes):
+            L = self._loop_len(n)
+            if L == 0:
+                continue
+            loops = np.flatnonzero((g.edge_src == n) & (g.edge_dst == n))
+            drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
+            e = int(loops[np.argmin(drift)])
+            d = g.edge_disp[e]
+            dur = L / self.fps
+            still[n] = np.hypot(d[0], d[1]) / dur <= ep and np.degrees(abs(d[2])) / dur <= eh
+        return still
+
+    def pose_nodes(self, label: str) -> np.ndarray:
+        """Nodes carrying the pose ``label`` where a character can wait standing still (all
+        nodes with the label when none of them can)."""
+        nodes = self.graph.nodes_with_label(label)
+        still = nodes[self._still[nodes]]
+        return still if len(still) else nodes
+
+    def _end_blocked(self, c: _Char, end: Config) -> bool:
+        """Would the character, standing at ``end`` after it arrives, be in the way of another
+        character's buffered future? (The planner tests the segment's frames; the idling
+        after them is tested here.)"""
+        act = self.active.copy()
+        act[c.slot] = False
+        if not act.any():
+            return False
+        last = int(min(self.tail[act].max(), end.frame + MAX_BUFFER))
+        if last <= end.frame:
+            return False
+        frames = np.arange(end.frame + 1, last + 1)
+        xz = np.broadcast_to(np.array([end.x, end.z]), (len(frames), 2))
+        r = np.full(len(frames), self._stay_r[end.node])
+        return bool(self._occupied(frames, xz, r, c.slot).any())
+
+    def _occupied(self, frames, xz, radius, owner):
+        """Samples that overlap another character's buffered future: its planned motion (the
+        space-time index) or its idling (the idle stretches)."""
+        frames = np.asarray(frames, dtype=np.int64)
+        xz = np.asarray(xz, dtype=np.float64)
+        radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape)
+        hit = self.index.overlaps(frames, xz, radius, ignore_owner=owner)
+        return hit | self.stretches.overlaps(frames, xz, radius, ignore_owner=owner)
+
+    def _shifted(self, c: _Char, res, tries: int = 2):
+        """A plan whose hand-off has already played, moved later in time: when the character
+        has been idling in place since the hand-off, every later idle-loop end is the same
+        configuration, so the same motion can start there. The moved motion is tested again
+        against the other characters (the environment does not move) and against the goal's
+        arrival window. Returns the new start frame or None."""
+        s0 = c.job_handoff
+        g = self.graph
+        rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + self.params.margin
+        for f, cfg in c.boundaries:
+            if f <= self.frame or cfg.node != s0.node or abs(cfg.x - s0.x) > 1e-6 or abs(cfg.z - s0.z) > 1e-6 \
+                    or abs((cfg.heading - s0.heading + math.pi) % (2 * math.pi) - math.pi) > 1e-6:
+                continue
+            dt = f - s0.frame
+            win = c.job_window
+            if win is not None and not (win[0] - 1e-9 <= (res.end.frame + dt) / self.fps <= win[1] + 1e-9):
+                return None
+            frames = f + np.arange(len(res.root))
+            if not self._collide(frames, res.root[:, :2], rad, c.slot).any():
+                return f
+            tries -= 1
+            if tries <= 0:
+                return None
+        return None
 
     def _finish_job(self, c: _Char, res):
         pend = c.goals.popleft()
         c.job = None
-        if res.warning:
-            self._emit("warning", c.name, message=res.warning)
-        start = c.job_handoff
-        if start.frame < self.frame:
-            # the hand-off has already played: plan again from a later one
+        start_frame = c.job_handoff.frame
+        if start_frame < self.frame and res.ok:
+            f = self._shifted(c, res)
+            if f is not None:
+                self.stats["plans_shifted"] += 1
+                start_frame = f
+        if start_frame < self.frame and res.ok:
+            # the hand-off has already played and the plan cannot be moved: plan again
             c.goals.appendleft(pend)
             c.state = CharacterState.QUEUED
             self._plan_queue.append(c)
+            self.stats["plans_redone"] += 1
             return
-        tr = Track(res.frames_a, res.frames_b, res.frames_t, res.root, start.frame)
-        self._write(c, tr, start.frame)
-        self.tail_node[c.slot] = res.end.node
-        end = res.end
-        c.boundaries.append((end.frame, end))
-        c.arrivals.append((end.frame, pend))
-        c.state = CharacterState.MOVING
-        self._append_idle(c)
+        dt = start_frame - res.start_frame
+        end = Config(res.end.node, res.end.x, res.end.z, res.end.heading, res.end.frame + dt)
+        problem = None
+        if not res.ok:
+            problem = res.warning or "no motion within the tolerance"
+        elif start_frame < self.frame:
+            problem = "planned too late"      # (not reached: handled above)
+        elif self._end_blocked(c, end):
+            problem = "standing at the goal would block a character already on its way there"
+        if problem and pend.retries < MAX_RETRY and (res.collided or res.ok) and len(self._plan_queue) < RETRY_QUEUE:
+            # blocked by other characters: try once more after the rest of the queue (they
+            # will have moved on by then) unless many others are waiting for the planner
+            pend.retries += 1
+            pend.defers = 0
+            c.goals.append(pend) if c.goals else c.goals.appendleft(pend)
+            self.stats["plans_retried"] += 1
+            c.state = CharacterState.IDLE
+        elif problem:
+            # a failed plan is not played: the character keeps idling where it is
+            self.stats["plans_failed"] += 1
+            self._emit("warning", c.name, message=f"{pend.kind}: plan not used ({problem}); keeps idling",
+                       goal=[float(v) for v in pend.goal.position])
+            c.state = CharacterState.IDLE
+        else:
+            self.stats["plans_done"] += 1
+            tr = Track(res.frames_a, res.frames_b, res.frames_t, res.root, start_frame)
+            self._write(c, tr, start_frame)
+            self.tail_node[c.slot] = end.node
+            c.boundaries.append((end.frame, end))
+            c.arrivals.append((end.frame, pend))
+            pend.start_frame = start_frame
+            self._seq += 1
+            heapq.heappush(self._due, (end.frame, self._seq, c))
+            c.state = CharacterState.MOVING
+            self._append_idle(c)
         if c.goals:
             c.state = CharacterState.QUEUED
             self._plan_queue.append(c)
 
-    def _plan(self):
-        """Planner steps while the next one is expected to fit in what is left of the budget
-        (a running average of step durations), and at least one step per tick, so planning
-        always progresses and rarely overruns."""
-        t_end = time.perf_counter() + self.budget
-        first = True
-        while first or time.perf_counter() + self._step_ema < t_end:
-            first = False
-            t_step = time.perf_counter()
-            if self._active is None:
-                while self._plan_queue and self._active is None:
-                    c = self._plan_queue.popleft()
-                    if c.name in self._chars and c.goals:
-                        try:
-                            self._start_job(c)
-                            self._active = c
-                        except Exception as e:
-                            c.goals.popleft()
-                            c.state = CharacterState.IDLE
-                            self._emit("warning", c.name, message=f"planning failed to start: {e}")
-                if self._active is None:
-                    return
-            c = self._active
-            try:
-                next(c.job)
-                self._step_ema = 0.9 * self._step_ema + 0.1 * (time.perf_counter() - t_step)
-            except StopIteration as stop:
-                self._active = None
+    def _goal_taken(self, c: _Char) -> bool:
+        """Does another character stand (where its buffered motion ends) on ``c``'s next goal?"""
+        goal = c.goals[0].goal
+        others = self.active.copy()
+        others[c.slot] = False
+        s = np.flatnonzero(others)
+        if len(s) == 0:
+            return False
+        xz = self.buf_root[s, self.tail[s] % MAX_BUFFER, :2]
+        d = np.hypot(xz[:, 0] - goal.position[0], xz[:, 1] - goal.position[1])
+        r_goal = self._stay_r[goal.nodes].max() if goal.nodes is not None else self._stay_r.max()
+        return bool(np.any(d < self._stay_r[self.tail_node[s]] + r_goal))
+
+    def _next_job(self) -> bool:
+        """Make the first queued character with a goal the active job; False when none. A goal
+        where another character stands waits behind the rest of the queue (up to
+        ``MAX_DEFER`` times): the other one may be about to leave, and the plan would fail."""
+        tries = len(self._plan_queue)
+        while self._plan_queue and self._active is None and tries > 0:
+            tries -= 1
+            c = self._plan_queue.popleft()
+            if c.name in self._chars and c.goals:
+                if c.goals[0].defers < MAX_DEFER and self._goal_taken(c):
+                    c.goals[0].defers += 1
+                    self._plan_queue.append(c)
+                    continue
                 try:
-                    self._finish_job(c, stop.value)
+                    self._start_job(c)
+                    self._active = c
                 except Exception as e:
-                    c.state = CharacterState.IDLE
-                    self._emit("warning", c.name, message=f"could not use the plan: {e}")
-            except Exception as e:
-                self._active = None
-                c.job = None
-                if c.goals:
                     c.goals.popleft()
-                c.state = CharacterState.IDLE
-                self._emit("warning", c.name, message=f"planning failed: {type(e).__name__}: {e}")
+                    c.state = CharacterState.IDLE
+                    self._emit("warning", c.name, message=f"planning failed to start: {e}")
+        return self._active is not None
+
+    def _advance_job(self) -> None:
+        c = self._active
+        try:
+            next(c.job)
+        except StopIteration as stop:
+            self._active = None
+            self._done = (c, stop.value)
+        except Exception as e:
+            self._active = None
+            c.job = None
+            if c.goals:
+                c.goals.popleft()
+            c.state = CharacterState.IDLE
+            self._emit("warning", c.name, message=f"planning failed: {type(e).__name__}: {e}")
+
+    def _use_result(self) -> None:
+        c, res = self._done
+        self._done = None
+        try:
+            self._finish_job(c, res)
+        except Exception as e:
+            c.state = CharacterState.IDLE
+            self._emit("warning", c.name, message=f"could not use the plan: {e}")
+
+    def _plan(self):
+        """Planner steps under the per-tick budget. A step is one ``next()`` of the active
+        planner generator, or using a finished plan (writing it into the buffer). Each step
+        has a kind — the point where the generator is suspended — and a predicted duration
+        for that kind (:class:`StepCosts`, a high estimate); a step starts only when its
+        prediction fits in what is left of the budget. The first step of a tick always runs,
+        so planning progresses even when a single step is longer than the budget."""
+        t0 = time.perf_counter()
+        c0 = time.thread_time()
+        steps = 0
+        while True:
+            if self._done is not None:
+                kind, run = _FINISH, self._use_result
+            elif self._active is not None or self._next_job():
+                kind, run = _step_kind(self._active.job), self._advance_job
+            else:
+                break
+            if steps and (time.perf_counter() - t0) + self._steps.predict(kind) > self.budget:
+                break
+            ts = time.perf_counter()
+            run()
+            self._steps.record(kind, time.perf_counter() - ts)
+            steps += 1
+        self.stats["plan_cpu_ms"] = (time.thread_time() - c0) * 1000
+        self.stats["plan_steps"] = steps
 
     # ------------------------------------------------------------------ the tick
     def tick(self) -> None:
@@ -467,24 +833,33 @@ class World:
         self.frame += 1
         act = self.active
         self.head[act] = self.frame
-        # never run dry: idle clips after the buffered future
-        low = np.flatnonzero(act & (self.tail - self.head < REFILL_BELOW))
-        for s in low:
-            c = self._slots[s]
-            if c.state is not CharacterState.PLANNING:
-                self._append_idle(c)
-            else:
-                self._append_idle(c, 1.0)
+        # never run dry: idle clips after the buffered future; the most urgent first and only
+        # a few per tick (characters spawned together would otherwise all refill on one tick)
+        left = self.tail - self.head
+        low = np.flatnonzero(act & (left < REFILL_BELOW))
+        if len(low):
+            low = low[np.argsort(left[low], kind="stable")]
+            n = max(REFILL_PER_TICK, int(np.sum(left[low] < REFILL_URGENT)),
+                    -(-len(low) // (REFILL_BELOW - REFILL_URGENT)))
+            for s in low[:n]:
+                c = self._slots[s]
+                self._append_idle(c, IDLE_SECONDS if c.state is not CharacterState.PLANNING else 1.0)
         self._announce()
         self.index.forget_before(self.frame)
+        if self.frame % 30 == 0:
+            self.stretches.forget_before(self.frame)
         self.stats.update(tick_ms=(time.perf_counter() - t0) * 1000, plan_ms=plan_ms,
-                          characters=int(act.sum()), queue=len(self._plan_queue) + (self._active is not None),
+                          characters=int(act.sum()), queue=len(self._plan_queue) + (self._active is not None) + (self._done is not None),
                           ticks=self.stats["ticks"] + 1)
 
     def _announce(self):
-        for c in self._chars.values():
-            if not c.arrivals:
-                continue
+        # characters with an arrival due: a heap of (frame, sequence, character)
+        due = []
+        while self._due and self._due[0][0] <= self.frame:
+            c = heapq.heappop(self._due)[2]
+            if c.name in self._chars and c not in due:
+                due.append(c)
+        for c in due:
             while c.arrivals and c.arrivals[0][0] <= self.frame:
                 f, pend = c.arrivals.pop(0)
                 kind = {"go_to": "arrived", "sit": "sat", "stand": "stood", "pick_up": "picked_up",
@@ -499,7 +874,7 @@ class World:
                     c.carrying = None
                 r = self.buf_root[c.slot, f % MAX_BUFFER]
                 self._emit(kind, c.name, position=(float(r[0]), float(r[1])), heading=float(r[2]),
-                           marker=pend.marker, frame=f)
+                           marker=pend.marker, frame=f, start_frame=pend.start_frame)
                 if not c.arrivals and not c.goals and c.state is CharacterState.MOVING:
                     c.state = CharacterState.IDLE
 
@@ -574,7 +949,19 @@ class World:
         return self.graph.skeleton
 
     def joint_positions(self):
-        return self.poses()
+        """What the viewer draws: :meth:`poses` through the table evaluator of
+        :mod:`runtime.pose` (a :class:`~runtime.pose.PoseBatch` pushed once per tick, interpolated
+        per frame; float32, within a few mm of the exact path)."""
+        s = np.flatnonzero(self.active)
+        if self._pose_batch is None:
+            self._pose_batch = PoseBatch(self.graph)
+        if self._pose_at != self.frame or not np.array_equal(s, self._pose_slots):
+            if self._pose_at != self.frame - 1 or not np.array_equal(s, self._pose_slots):
+                self._pose_batch.reset()
+                self._pose_batch.push(PoseState(*self._gather(-1)[1:]))
+            self._pose_batch.push(PoseState(*self._gather(0)[1:]))
+            self._pose_at, self._pose_slots = self.frame, s
+        return self._pose_batch.positions(self.alpha)
 
     def hud_stats(self) -> dict:
         return {"tick ms": round(self.stats["tick_ms"], 2), "synthesis ms": round(self.stats["plan_ms"], 2),

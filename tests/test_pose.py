@@ -152,3 +152,16 @@ def test_bad_input_is_reported(default_graph):
     batch.push(([0, 1], [1, 2], [0, 0], np.zeros((2, 3))))
     with pytest.raises(ValueError, match="keep refers to character 5"):
         batch.push(([0, 1], [1, 2], [0, 0], np.zeros((2, 3))), keep=[0, 5])
+
+
+def test_pose_batch_restarts_after_reset(default_graph):
+    g = default_graph
+    prev, cur = _states(g, 7, np.random.default_rng(6))
+    batch = PoseBatch(g)
+    batch.push(prev)
+    batch.push(cur)
+    batch.reset()
+    batch.push(cur)
+    batch.push(prev)
+    want = evaluate_world(g, prev.frames_a, prev.frames_b, prev.frames_t, prev.root, prev=cur, alpha=0.25)
+    assert np.abs(batch.positions(0.25) - want).max() < 1e-5

@@ -34,3 +34,28 @@ def test_run_headless_screenshot(tmp_path, default_graph):
     assert r.returncode == 0, r.stderr[-2000:]
     assert out.exists() and out.stat().st_size > 10_000
     assert "13 characters" in r.stdout
+
+
+def test_display_probe_reports_why_there_is_none(monkeypatch):
+    from authoring.commands.demo import display_available
+    monkeypatch.delenv("DISPLAY", raising=False)
+    assert display_available() == (False, "DISPLAY is not set")
+    monkeypatch.setenv("DISPLAY", ":987")          # no server there
+    ok, why = display_available()
+    assert not ok and ("cannot open display ':987'" in why or "libX11" in why)
+
+
+@pytest.mark.slow
+@pytest.mark.display
+def test_demo_without_a_display_renders_the_plaza_headless(tmp_path, default_graph):
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)
+    env["CROWDWEAVE_CACHE"] = str(Path(default_graph.path).parent)     # the library is built already
+    shot = Path(env["CROWDWEAVE_CACHE"]) / "plaza.png"
+    if shot.exists():
+        shot.unlink()
+    r = subprocess.run([sys.executable, "-m", "authoring.cli", "demo", "--quiet", "--seconds", "1"],
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "no display (DISPLAY is not set)" in r.stdout and "13 characters" in r.stdout
+    assert shot.exists() and shot.stat().st_size > 10_000

@@ -83,8 +83,10 @@ vec3 fog(vec3 c, float dist) {
 }
 """
 
-# -- ground and grid: lighting per vertex (the normal is constant); fog by view depth, which is
-# linear over a triangle and so interpolates exactly, evaluated per pixel -------------------------
+# -- ground and grid: lighting per vertex (the normal is constant, and the lighting is linear in
+# the colour); fog by view depth, which is linear over a triangle and so interpolates exactly; the
+# grid lines' fade into the ground by eye distance per pixel. So the ground and the plaza are a few
+# large triangles and every grid line is one segment: llvmpipe's cost is per primitive ----------
 _FLAT_VS = """#version 330 core
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec4 a_color;     // rgb, fade distance (0 = no fade)
@@ -94,21 +96,59 @@ uniform vec3 u_ground;
 uniform vec3 u_forward;                   // camera forward: view depth is linear over a triangle
 uniform float u_fade_scale;               // grid fade distances grow with the camera distance
 out vec3 v_color;
+out vec3 v_ground;
+out vec3 v_pos;
+out float v_fade;
 out float v_dist;
 """ + _SHADE + """
 void main() {
-    float d = length(u_eye - a_pos);
-    vec3 c = a_color.rgb;
-    if (a_color.a > 0.0) {   // grid lines fade into the ground colour with distance
-        c = mix(c, u_ground, clamp(d / (a_color.a * u_fade_scale), 0.0, 1.0));
-    }
-    v_color = lit(c, vec3(0.0, 1.0, 0.0));   // no view-dependent terms: cells are large
+    v_color = lit(a_color.rgb, vec3(0.0, 1.0, 0.0));   // no view-dependent terms
+    v_ground = lit(u_ground, vec3(0.0, 1.0, 0.0));
+    v_pos = a_pos;
+    v_fade = a_color.a * u_fade_scale;
     v_dist = dot(a_pos - u_eye, u_forward);
     gl_Position = u_vp * vec4(a_pos, 1.0);
 }
 """
 _FLAT_FS = """#version 330 core
 in vec3 v_color;
+in vec3 v_ground;
+in vec3 v_pos;
+in float v_fade;
+in float v_dist;
+uniform vec3 u_eye;
+uniform vec3 u_fog_color;
+uniform vec2 u_fog;
+out vec4 frag;
+void main() {
+    vec3 c = v_color;
+    if (v_fade > 0.0) {      // grid lines fade into the ground colour with distance
+        c = mix(c, v_ground, clamp(length(u_eye - v_pos) / v_fade, 0.0, 1.0));
+    }
+    float f = clamp((v_dist - u_fog.x) / (u_fog.y - u_fog.x), 0.0, 1.0);
+    frag = vec4(mix(c, u_fog_color, f * f), 1.0);
+}
+"""
+
+# the ground and the plaza themselves: one colour per mesh (flat), so a pixel interpolates only
+# its view depth (llvmpipe's cost per pixel grows with every interpolated value)
+_GROUND_VS = """#version 330 core
+layout(location = 0) in vec3 a_pos;
+layout(location = 1) in vec4 a_color;
+uniform mat4 u_vp;
+uniform vec3 u_eye;
+uniform vec3 u_forward;
+flat out vec3 v_color;
+out float v_dist;
+""" + _SHADE + """
+void main() {
+    v_color = lit(a_color.rgb, vec3(0.0, 1.0, 0.0));
+    v_dist = dot(a_pos - u_eye, u_forward);
+    gl_Position = u_vp * vec4(a_pos, 1.0);
+}
+"""
+_GROUND_FS = """#version 330 core
+flat in vec3 v_color;
 in float v_dist;
 uniform vec3 u_fog_color;
 uniform vec2 u_fog;
@@ -590,38 +630,32 @@ class _Mesh:
 
 # -- static ground geometry ----------------------------------------------------------------------------
 
-def _ground_mesh(area, extent=GROUND_EXTENT, cells=40):
-    """Triangles (V, 7) of the ground plane around the area's centre (cells growing
-    quadratically away from it, so interpolated eye distances stay accurate near the eye) and
-    the plaza on top."""
+def _ground_mesh(area, extent=GROUND_EXTENT):
+    """Triangles (V, 7) of the ground plane around the area's centre, with a hole where the
+    plaza (the area) lies, and the plaza. Their shading is exact on any triangles (see
+    ``_FLAT_VS``), so both are a few large quads; no pixel is drawn twice (llvmpipe's cost is per
+    pixel shaded). The ground is the 3 x 3 grid with lines at the plaza's edges minus its middle
+    cell, so every edge is shared whole (no T-junctions, no cracks)."""
     x0, z0, x1, z1 = area
     cx, cz = (x0 + x1) / 2, (z0 + z1) / 2
+    xs = (cx - extent, x0, x1, cx + extent)
+    zs = (cz - extent, z0, z1, cz + extent)
 
-    def grid(xa, za, xb, zb, nx, nz, y, col, quadratic=False):
-        u = np.linspace(-1.0, 1.0, nx + 1)
-        v = np.linspace(-1.0, 1.0, nz + 1)
-        if quadratic:
-            u, v = np.sign(u) * u * u, np.sign(v) * v * v
-        xs = (xa + xb) / 2 + u * (xb - xa) / 2
-        zs = (za + zb) / 2 + v * (zb - za) / 2
-        X, Z = np.meshgrid(xs, zs, indexing="ij")
-        P = np.stack([X, np.full_like(X, y), Z], -1)
-        q = np.stack([P[:-1, :-1], P[1:, :-1], P[1:, 1:], P[:-1, :-1], P[1:, 1:], P[:-1, 1:]], axis=2)
-        q = q.reshape(-1, 3)
-        c = np.broadcast_to(np.r_[col, 0.0], (len(q), 4))
-        return np.concatenate([q, c], axis=1)
+    def quad(xa, za, xb, zb, col):
+        P = np.array([[xa, 0.0, za], [xb, 0.0, za], [xb, 0.0, zb], [xa, 0.0, za], [xb, 0.0, zb], [xa, 0.0, zb]])
+        return np.concatenate([P, np.broadcast_to(np.r_[col, 0.0], (6, 4))], axis=1)
 
-    ground = grid(cx - extent, cz - extent, cx + extent, cz + extent, cells, cells, 0.0, GROUND, quadratic=True)
-    nx = max(1, int(math.ceil((x1 - x0) / 4)))
-    nz = max(1, int(math.ceil((z1 - z0) / 4)))
-    plaza = grid(x0, z0, x1, z1, nx, nz, 0.0, PLAZA)
+    ground = np.concatenate([quad(xs[i], zs[j], xs[i + 1], zs[j + 1], GROUND)
+                             for i in range(3) for j in range(3) if (i, j) != (1, 1)])
+    plaza = quad(x0, z0, x1, z1, PLAZA)
     return ground.astype(np.float32), plaza.astype(np.float32)
 
 
 def _grid_lines(area, extent=150.0):
     """Line segments (V, 7): 1 m lines over the plaza and 5 m lines out to ``extent`` (returned
-    separately: they fade into different colours), split into short pieces so the per-vertex
-    fade and fog stay smooth."""
+    separately: they fade into different colours), in 25 m pieces (the fade is per pixel and the
+    fog linear, so any pieces shade exactly; but llvmpipe drops lines that reach far outside the
+    view, so they are not drawn whole)."""
     x0, z0, x1, z1 = area
     out = []
 
@@ -644,7 +678,7 @@ def _grid_lines(area, extent=150.0):
             out.append(_segments(p, col, fade))
 
     cx, cz = (x0 + x1) / 2, (z0 + z1) / 2
-    lines(x0, z0, x1, z1, 1.0, np.array(PLAZA) * 0.90, 60.0, 2.0)
+    lines(x0, z0, x1, z1, 1.0, np.array(PLAZA) * 0.90, 60.0, 25.0)
     minor = np.concatenate(out).astype(np.float32)
     out.clear()
     lines(cx - extent, cz - extent, cx + extent, cz + extent, 5.0, np.array(GROUND) * 0.84, 90.0, 25.0)
@@ -668,7 +702,8 @@ class Renderer:
 
     def __init__(self, skeleton):
         self.style = FigureStyle.for_skeleton(skeleton)
-        self.p_flat = _Program(_FLAT_VS, _FLAT_FS, "ground")
+        self.p_flat = _Program(_FLAT_VS, _FLAT_FS, "grid")
+        self.p_ground = _Program(_GROUND_VS, _GROUND_FS, "ground")
         self.p_sky = _Program(_SKY_VS, _SKY_FS, "sky")
         self.p_lit = _Program(_LIT_VS, _LIT_FS, "lit")
         self.p_decal = _Program(_DECAL_VS, _DECAL_FS, "decal")
@@ -938,13 +973,15 @@ class Renderer:
             p.set(u_horizon_y=hy, u_horizon=SKY_HORIZON, u_zenith=SKY_ZENITH)
             gl.glBindVertexArray(self.vao_empty)
             gl.glDrawArrays(gl.GL_TRIANGLES, 0, 6)
-        p = self.p_flat.use()
-        p.set(u_vp=vp, u_eye=tuple(eye), u_ground=GROUND, u_forward=tuple(-view[2, :3]),
-              u_fade_scale=float(max(1.0, dist / 40.0)), **shade)
+        ground = dict(u_vp=vp, u_eye=tuple(eye), u_forward=tuple(-view[2, :3]), **shade)
+        grid = dict(ground, u_fade_scale=float(max(1.0, dist / 40.0)))
+        self.p_ground.use().set(**ground)
         self.m_ground.draw()
+        self.p_flat.use().set(u_ground=GROUND, **grid)     # 5 m lines, hidden by the plaza
         self.m_major.draw()
-        p.set(u_ground=PLAZA)
+        self.p_ground.use()
         self.m_plaza.draw()
+        self.p_flat.use().set(u_ground=PLAZA, **grid)      # 1 m lines on the plaza
         self.m_lines.draw()
         gl.glEnable(gl.GL_DEPTH_TEST)
         # environment

@@ -56,8 +56,10 @@ class Viewer:
                  vsync: bool = False, visible: bool = True):
         self.scene = scene
         if window is None:
+            # 8 bits per channel: without asking, headless EGL picks RGB565, which llvmpipe fills
+            # far more slowly than its native BGRA8 (and which bands the colours)
             config = gl.Config(double_buffer=True, depth_size=24, major_version=3, minor_version=3,
-                               forward_compatible=True)
+                               forward_compatible=True, red_size=8, green_size=8, blue_size=8, alpha_size=8)
             try:
                 window = pyglet.window.Window(width, height, caption=caption, resizable=True, config=config,
                                               vsync=vsync, visible=visible)
