@@ -366,8 +366,9 @@ class SegmentPlanner:
         if g.node_state[node] != travel:
             tnodes = np.flatnonzero(g.node_state == travel)
             dist = self._bfs_dist(tnodes, np.ones(g.num_edges, bool), reverse)
-            self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[min(1, len(waypoints) - 1)],
-                              src, dst, disp, np.ones(g.num_edges, bool))
+            yield
+            yield from self._fewest_path(node, dist, advance, lambda: node, lambda: cfg,
+                                         waypoints[min(1, len(waypoints) - 1)], src, dst, disp, np.ones(g.num_edges, bool))
         wi = 1 if len(waypoints) > 1 else 0
         best = None
         tgt = None if target_nodes is None else np.asarray(target_nodes)
@@ -429,8 +430,11 @@ class SegmentPlanner:
         elapsed = 0.0
         waits = 0
         sidesteps = 0
-        clear1 = lambda e: bool(self._clear(np.array([e]), cfg[None], np.array([frame]) if not reverse
-                                            else frame - (lib.nframes[[e]] - 1), moving=not reverse)[0])
+        def clear_many(es):
+            es = np.asarray(es, dtype=np.int64)
+            return self._clear(es, np.repeat(cfg[None], len(es), 0),
+                               np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
+                               moving=not reverse)
         table = lib.lookahead(reverse, travel)
         while len(edges) < self.p.max_seed_edges:
             final = place_carrot()
@@ -518,6 +522,7 @@ class SegmentPlanner:
                     # nothing gains on this target: aim further along the path
                     ahead += self.p.carrot
                     sidesteps = 0
+                    yield           # each target move is a bounded step (time slicing)
                     continue
                 break
             advance(pick)
@@ -535,13 +540,14 @@ class SegmentPlanner:
             if not np.isfinite(dist[node]):
                 allowed = np.ones(g.num_edges, bool)
                 dist = self._bfs_dist(tgt, allowed, reverse)
-            self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst, disp, allowed,
-                              clear=clear1)
+            yield from self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst,
+                                         disp, allowed, clear=clear_many)
         return edges, node
 
     def _fewest_path(self, node, dist, advance, get_node, get_cfg, target_xz, src, dst, disp, allowed, clear=None):
-        """Fewest edges to the nodes ``dist`` measures, ties broken by the distance to
-        ``target_xz``; with ``clear``, collision-free edges are preferred."""
+        """Generator (yields after every edge): fewest edges to the nodes ``dist`` measures,
+        ties broken by the distance to ``target_xz``; with ``clear`` (edges -> bool array),
+        collision-free edges are preferred."""
         guard = 0
         while np.isfinite(dist[get_node()]) and dist[get_node()] > 0 and guard < 64:
             guard += 1
@@ -554,11 +560,11 @@ class SegmentPlanner:
             order = out[np.argsort(e, kind="stable")]
             pick = order[0]
             if clear is not None:
-                for cand in order[:8]:
-                    if clear(int(cand)):
-                        pick = cand
-                        break
+                ok = clear(order[:8])
+                if ok.any():
+                    pick = order[:8][np.argmax(ok)]
             advance(pick)
+            yield
 
     # -- cost (Eq. 1, 2), vectorized over pairs ---------------------------------------------------
     def pair_costs(self, F: np.ndarray, nf: np.ndarray, B: np.ndarray, nb: np.ndarray,
@@ -827,6 +833,7 @@ class SegmentPlanner:
                     Fs, Bs = rows_new
                     k = len(Fs)
                     Fn[P - k:], Bn[P - k:], nfn[P - k:], nbn[P - k:] = Fs, Bs, nfp[0], nbp[0]
+                yield       # the sweep and the costing are separate steps (time slicing)
             cn, inn, jn = self.pair_costs(Fn, nfn, Bn, nbn, start.xzh, goal_cfg, window_rel)
             order = np.argsort(cn, kind="stable")
             for r in order[:p.splices_per_iteration]:
