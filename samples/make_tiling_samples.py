@@ -15,52 +15,31 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
+STATIC_TOML = '''mode = "static"
+seed = 1
+
+[library]
+meets = 4
+
+[region]
+size = [12.0, 12.0]
+seconds = 20.0
+
+[tiler]
+seeds = {seeds}
+'''
+
+
+def _static(density: str, seeds: int) -> dict:
+    """One of the static 12 x 12 m, 20 s series (Figure 7, top row); ``seeds`` sets the density."""
+    return dict(description=f"Static 12 x 12 m, 20 s, {density} density (Figure 7, top row)",
+                toml=STATIC_TOML.format(seeds=seeds))
+
+
 SAMPLES = {
-    "tiling_static_15": dict(
-        description="Static 12 x 12 m, 20 s, low density (Figure 7, top row)",
-        toml='''mode = "static"
-seed = 1
-
-[library]
-meets = 4
-
-[region]
-size = [12.0, 12.0]
-seconds = 20.0
-
-[tiler]
-seeds = 15
-'''),
-    "tiling_static_30": dict(
-        description="Static 12 x 12 m, 20 s, medium density (Figure 7, top row)",
-        toml='''mode = "static"
-seed = 1
-
-[library]
-meets = 4
-
-[region]
-size = [12.0, 12.0]
-seconds = 20.0
-
-[tiler]
-seeds = 30
-'''),
-    "tiling_static_45": dict(
-        description="Static 12 x 12 m, 20 s, high density (Figure 7, top row)",
-        toml='''mode = "static"
-seed = 1
-
-[library]
-meets = 4
-
-[region]
-size = [12.0, 12.0]
-seconds = 20.0
-
-[tiler]
-seeds = 45
-'''),
+    "tiling_static_15": _static("low", 15),
+    "tiling_static_30": _static("medium", 30),
+    "tiling_static_45": _static("high", 45),
     "tiling_dynamic": dict(
         description="Dynamic environment: a tall and a short moving obstacle, a source and a sink (Figure 7, middle row)",
         toml='''mode = "static"
