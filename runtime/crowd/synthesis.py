@@ -86,7 +86,7 @@ class SynthesisParams:
     sweep: int = 100               # perturbations per iteration spent on every alternative of one clip
     sweep_pairs: int = 2000        # two-clip combinations scored per pair sweep (a random subset)
     splices_per_iteration: int = 3 # below-eps pairs spliced and collision-tested per iteration
-    static_seed_margin: float = 0.08  # extra clearance (m) from obstacles in the seeds (sampling gaps)
+    static_seed_margin: float = 0.0  # extra clearance (m) from obstacles in the seeds (0.08 broke rooms_box doors)
     seed_margin: float = 0.0       # extra clearance (m) from planned characters in the seeds
     reach_radius: float = 0.75     # a way point counts as reached within this distance (m)
     max_sidesteps: int = 6         # non-improving clear edges a seed may take per way point
