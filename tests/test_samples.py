@@ -24,7 +24,7 @@ SAMPLES = ROOT / "samples"
 sys.path.insert(0, str(SAMPLES))
 import make_samples  # noqa: E402
 
-COUNTS = {"meet20": 20, "spell70": 70, "rooms_box": 9, "theater40": 40, "fetch_boxes20": 20,
+COUNTS = {"meet20": 20, "spell70": 70, "rooms_box": 1, "theater40": 40, "fetch_boxes20": 20,
           "grid300": 300, "grid500": 500}
 
 
