@@ -10,16 +10,13 @@ differ from that bare ground/sky frame, and at empty ground away from everything
 import json
 import math
 import os
-import select
-import shutil
 import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from screenshots import Screenshot, xvfb_display
 
 ROOT = Path(__file__).resolve().parents[1]
 WORLD = ROOT / "samples" / "example_world" / "world.usda"
@@ -150,116 +147,25 @@ def _run(script, args, env_extra=None, drop_display=False, timeout=240):
 @pytest.fixture(scope="module")
 def xvfb():
     """A private Xvfb server (1280x720x24) for this module; yields its DISPLAY string."""
-    exe = shutil.which("Xvfb")
-    if exe is None:
-        pytest.skip("Xvfb is not installed (apt-get install -y xvfb)")
-    r, w = os.pipe()
-    log = tempfile.TemporaryFile()
-    proc = subprocess.Popen([exe, "-displayfd", str(w), "-screen", "0", "1280x720x24", "-nolisten", "tcp"],
-                            pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=log)
-    os.close(w)
-    try:
-        buf, end = b"", time.monotonic() + 20.0      # the display number, up to its newline
-        while not buf.endswith(b"\n"):
-            ready, _, _ = select.select([r], [], [], max(0.0, end - time.monotonic()))
-            chunk = os.read(r, 64) if ready else b""
-            if not chunk:
-                break
-            buf += chunk
-        line = buf.decode().strip()
-        if not line:
-            proc.kill()
-            log.seek(0)
-            pytest.fail(f"Xvfb did not report a display: {log.read().decode(errors='replace')[-2000:]}")
-        yield f":{line}"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-        os.close(r)
-        log.close()
-
-
-def _png(path):
-    from pyglet.extlibs import png   # pure Python decoder: no GL, no display
-    w, h, rows, _ = png.Reader(filename=str(path)).asRGBA8()
-    return np.array([np.frombuffer(bytes(row), np.uint8) for row in rows]).reshape(h, w, 4)[..., :3].astype(int)
-
-
-def _project(vp, pts, w, h):
-    from runtime.viewer.camera import project
-    return project(vp, pts, w, h)
+    yield from xvfb_display()
 
 
 def _check_screenshot(out: Path, n: int):
-    """Pixels at characters and obstacles differ from the bare frame; empty ground does not."""
+    """Pixels at characters, flock agents and obstacles differ from the bare frame; empty
+    ground does not."""
     from usd_io.world import read_world
-    shot, bare = _png(out / "shot.png"), _png(out / "bare.png")
-    f = np.load(out / "frame.npz")
-    w, h = (int(v) for v in f["size"])
-    assert shot.shape == bare.shape == (h, w, 3)
-    vp, joints, hud = f["vp"], f["joints"], f["hud"]
-
-    def usable(px, front, margin=3):
-        ok = front & (px[:, 0] >= margin) & (px[:, 0] < w - margin) & (px[:, 1] >= margin) & (px[:, 1] < h - margin)
-        for x, y, rw, rh in hud:
-            ok &= ~((px[:, 0] >= x - 2) & (px[:, 0] <= x + rw + 2) & (px[:, 1] >= y - 2) & (px[:, 1] <= y + rh + 2))
-        return ok
-
-    def diff(px):
-        """Largest colour difference (sum over RGB) in the 3x3 block around each pixel."""
-        out_ = []
-        for x, y in px:
-            c, r = int(x), h - 1 - int(y)            # PNG rows run top to bottom
-            a = shot[r - 1:r + 2, c - 1:c + 2]
-            b = bare[r - 1:r + 2, c - 1:c + 2]
-            out_.append(int(np.abs(a - b).sum(axis=-1).max()))
-        return np.array(out_)
-
+    shot = Screenshot(out)
+    assert shot.joints.shape[0] == n
     # characters: their roots (hips), where the world says they are
-    assert joints.shape[0] == n
-    px, front = _project(vp, joints[:, 0].astype(float), w, h)
-    vis = usable(px, front)
-    assert vis.sum() >= int(0.75 * n), f"only {vis.sum()} of {n} characters on screen"
-    d = diff(px[vis])
-    assert (d > 40).all(), f"characters not drawn at {px[vis][d <= 40].round(1).tolist()} (diffs {d[d <= 40]})"
+    shown = shot.drawn_at(shot.joints[:, 0], "characters", int(0.75 * n))
     # flock agents: arrowheads on the ground
-    fl = f["flock"]
+    fl = shot.frame["flock"]
     assert len(fl) == 8
-    px, front = _project(vp, fl + [0.0, 0.1, 0.0], w, h)
-    vis_f = usable(px, front)
-    assert vis_f.sum() >= 4
-    d = diff(px[vis_f])
-    assert (d > 40).all(), f"flock agents not drawn at {px[vis_f][d <= 40].round(1).tolist()}"
-    # obstacles (extruded 1 m by default): the middle of each footprint at half height
+    shot.drawn_at(fl + [0.0, 0.1, 0.0], "flock agents", 4)
     env = read_world(WORLD)
-    centres = [np.r_[p.mean(axis=0)] for p in env.polygons] + [c[:2] for c in env.circles]
-    opts = np.array([[c[0], 0.5, c[1]] for c in centres])
-    px, front = _project(vp, opts, w, h)
-    vis_o = usable(px, front)
-    assert vis_o.sum() >= len(opts) - 1
-    d = diff(px[vis_o])
-    assert (d > 40).all(), f"obstacles not drawn at {px[vis_o][d <= 40].round(1).tolist()}"
-    # control: empty ground far from characters, obstacles and markers looks like the bare frame
-    rng = np.random.default_rng(0)
-    x0, z0, x1, z1 = env.bounds(1.0)
-    g = np.column_stack([rng.uniform(x0, x1, 600), rng.uniform(z0, z1, 600)])
-    far = env.distance(g) > 1.0
-    far &= np.min(np.hypot(*(g[:, None, :] - joints[None, :, 0, [0, 2]]).transpose(2, 0, 1)), axis=1) > 2.5
-    mk = np.array([m.position for m in env.markers.values()])
-    far &= np.min(np.hypot(*(g[:, None, :] - mk[None]).transpose(2, 0, 1)), axis=1) > 2.0
-    for m in env.markers.values():
-        if m.polygon is not None:
-            lo, hi = m.polygon.min(axis=0) - 0.5, m.polygon.max(axis=0) + 0.5
-            far &= ~np.all((g >= lo) & (g <= hi), axis=1)
-    gp, gf = _project(vp, np.column_stack([g[:, 0], np.zeros(len(g)), g[:, 1]]), w, h)
-    ok = far & usable(gp, gf)
-    assert ok.sum() >= 20
-    same = diff(gp[ok]) <= 24
-    assert same.mean() >= 0.8, f"empty ground differs from the bare frame at {(~same).sum()} of {ok.sum()} points"
-    return int(vis.sum())
+    shot.obstacles_drawn(env)
+    shot.empty_ground_is_bare(env)
+    return shown
 
 
 @pytest.fixture(scope="module")

@@ -17,16 +17,13 @@ display backend once per process) and checks
 """
 import json
 import os
-import select
-import shutil
 import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from screenshots import Screenshot, xvfb_display
 
 ROOT = Path(__file__).resolve().parents[1]
 WORLD = ROOT / "samples" / "example_world" / "world.usda"
@@ -206,93 +203,20 @@ def _lib(default_graph):
 def xvfb():
     """A private Xvfb server (1280x720x24) started for the test; yields its DISPLAY string and
     stops it afterwards. Skips when Xvfb is not installed."""
-    exe = shutil.which("Xvfb")
-    if exe is None:
-        pytest.skip("Xvfb is not installed (apt-get install -y xvfb)")
-    r, wfd = os.pipe()
-    log = tempfile.TemporaryFile()
-    proc = subprocess.Popen([exe, "-displayfd", str(wfd), "-screen", "0", "1280x720x24", "-nolisten", "tcp"],
-                            pass_fds=(wfd,), stdout=subprocess.DEVNULL, stderr=log)
-    os.close(wfd)
-    try:
-        buf, end = b"", time.monotonic() + 20.0
-        while not buf.endswith(b"\n"):
-            ready, _, _ = select.select([r], [], [], max(0.0, end - time.monotonic()))
-            chunk = os.read(r, 64) if ready else b""
-            if not chunk:
-                break
-            buf += chunk
-        line = buf.decode().strip()
-        if not line:
-            log.seek(0)
-            pytest.fail(f"Xvfb did not report a display: {log.read().decode(errors='replace')[-2000:]}")
-        yield f":{line}"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-        os.close(r)
-        log.close()
-
-
-def _png(path):
-    from pyglet.extlibs import png   # pure Python decoder: no GL, no display
-    w, h, rows, _ = png.Reader(filename=str(path)).asRGBA8()
-    return np.array([np.frombuffer(bytes(row), np.uint8) for row in rows]).reshape(h, w, 4)[..., :3].astype(int)
+    yield from xvfb_display()
 
 
 def _check_screenshot(out: Path, n: int) -> int:
     """Pixels at the World's characters and at obstacles differ from the bare frame; empty
     ground far from everything does not. Returns the number of characters seen."""
-    from runtime.viewer.camera import project
     from usd_io.world import read_world
-    shot, bare = _png(out / "shot.png"), _png(out / "bare.png")
-    f = np.load(out / "frame.npz")
-    w, h = (int(v) for v in f["size"])
-    assert shot.shape == bare.shape == (h, w, 3)
-    vp, joints = f["vp"], f["joints"]
-    assert joints.shape[0] == n
-
-    def on_screen(px, front, m=3):
-        return front & (px[:, 0] >= m) & (px[:, 0] < w - m) & (px[:, 1] >= m) & (px[:, 1] < h - m)
-
-    def diff(px):
-        """Largest colour difference (sum over RGB) in the 3x3 block around each pixel."""
-        out_ = []
-        for x, y in px:
-            c, r = int(x), h - 1 - int(y)            # PNG rows run top to bottom
-            out_.append(int(np.abs(shot[r - 1:r + 2, c - 1:c + 2] - bare[r - 1:r + 2, c - 1:c + 2]).sum(-1).max()))
-        return np.array(out_)
-
-    px, front = project(vp, joints[:, 0].astype(float), w, h)
-    vis = on_screen(px, front)
-    d = diff(px[vis])
-    assert (d > 40).all(), f"characters not drawn at {px[vis][d <= 40].round(1).tolist()} (diffs {d[d <= 40]})"
+    shot = Screenshot(out)
+    assert shot.joints.shape[0] == n
+    shown = shot.drawn_at(shot.joints[:, 0], "characters", 0)
     env = read_world(WORLD)
-    centres = [p.mean(axis=0) for p in env.polygons] + [c[:2] for c in env.circles]
-    px, front = project(vp, np.array([[c[0], 0.5, c[1]] for c in centres]), w, h)
-    vis_o = on_screen(px, front)
-    assert vis_o.sum() >= len(centres) - 1
-    d = diff(px[vis_o])
-    assert (d > 40).all(), f"obstacles not drawn at {px[vis_o][d <= 40].round(1).tolist()}"
-    rng = np.random.default_rng(0)
-    x0, z0, x1, z1 = env.bounds(1.0)
-    g = np.column_stack([rng.uniform(x0, x1, 600), rng.uniform(z0, z1, 600)])
-    far = env.distance(g) > 1.0
-    far &= np.min(np.hypot(*(g[:, None, :] - joints[None, :, 0, [0, 2]]).transpose(2, 0, 1)), axis=1) > 2.5
-    mk = np.array([m.position for m in env.markers.values()])
-    far &= np.min(np.hypot(*(g[:, None, :] - mk[None]).transpose(2, 0, 1)), axis=1) > 2.0
-    for m in env.markers.values():
-        if m.polygon is not None:
-            lo, hi = m.polygon.min(axis=0) - 0.5, m.polygon.max(axis=0) + 0.5
-            far &= ~np.all((g >= lo) & (g <= hi), axis=1)
-    gp, gf = project(vp, np.column_stack([g[:, 0], np.zeros(len(g)), g[:, 1]]), w, h)
-    ok = far & on_screen(gp, gf)
-    assert ok.sum() >= 20
-    assert (diff(gp[ok]) <= 24).mean() >= 0.8, "empty ground differs from the bare frame"
-    return int(vis.sum())
+    shot.obstacles_drawn(env)
+    shot.empty_ground_is_bare(env)
+    return shown
 
 
 def _check_click_and_arrival(res):
