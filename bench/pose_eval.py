@@ -4,7 +4,9 @@ N characters (default 10,000) on the default motion library, each with two conse
 states (library frames a, b = a + 1, blend t, planar root) and a render ``alpha`` between the
 ticks. Every method produces the joint world positions (N, J, 3) of all characters at ``alpha``:
 
-* ``PoseBatch tick``: what a world does once per tick -- ``push`` (one gather of the precomputed
+* ``PoseBatch fused tick``: what a world does once per tick when numba is importable -- ``push``
+  and one ``positions(alpha)`` in the fused parallel kernels (runtime/pose_kernels.py);
+* ``PoseBatch tick``: the numpy path -- ``push`` (one gather of the precomputed
   per-frame root-local positions and a blend) plus one ``positions(alpha)``;
 * ``PoseBatch push only``: the per-tick half alone;
 * ``PoseBatch frame``: a rendered frame between ticks -- ``positions(alpha)`` only;
@@ -31,6 +33,7 @@ import time
 import numpy as np
 
 from runtime.crowd.tracks import evaluate_poses
+from runtime import pose_kernels
 from runtime.library import load_library
 from runtime.motion import quat
 from runtime.motion.fk import forward_kinematics
@@ -99,25 +102,30 @@ def main(argv=None):
     t0 = time.perf_counter()
     PoseTable.for_graph(g)
     build_ms = (time.perf_counter() - t0) * 1e3
-    batch = PoseBatch(g)
-    batch.push(prev)
-
-    def tick():
-        batch.push(cur)
-        return batch.positions(a)
-
     rows = []
-    ms, _ = timed(tick, args.repeat)          # (re-pushing cur: same work as a real tick)
-    batch.push(prev)
-    batch.push(cur)
-    out_batch = batch.positions(a).copy()
-    rows.append(("PoseBatch tick (push + positions)", ms, out_batch))
-    ms, _ = timed(lambda: batch.push(cur), args.repeat)
-    batch.push(prev)
-    batch.push(cur)
-    rows.append(("PoseBatch push only (per tick)", ms, batch.positions(a).copy()))
-    ms, _ = timed(lambda: batch.positions(a), args.repeat)
-    rows.append(("PoseBatch frame (positions, per frame)", ms, batch.positions(a).copy()))
+    batches = [("", PoseBatch(g, fused=False))]
+    if pose_kernels.AVAILABLE:
+        t0 = time.perf_counter()
+        PoseBatch(g, fused=True).push(cur)       # compile (or load the cached kernels)
+        compile_ms = (time.perf_counter() - t0) * 1e3
+        batches.insert(0, (" fused", PoseBatch(g, fused=True)))
+    for tag, batch in batches:
+        batch.push(prev)
+
+        def tick():
+            batch.push(cur)
+            return batch.positions(a)
+
+        ms, _ = timed(tick, args.repeat)          # (re-pushing cur: same work as a real tick)
+        batch.push(prev)
+        batch.push(cur)
+        rows.append((f"PoseBatch{tag} tick (push + positions)", ms, batch.positions(a).copy()))
+        ms, _ = timed(lambda: batch.push(cur), args.repeat)
+        batch.push(prev)
+        batch.push(cur)
+        rows.append((f"PoseBatch{tag} push only (per tick)", ms, batch.positions(a).copy()))
+        ms, _ = timed(lambda: batch.positions(a), args.repeat)
+        rows.append((f"PoseBatch{tag} frame (positions)", ms, batch.positions(a).copy()))
     ms, out_ew = timed(lambda: evaluate_world(g, cur.frames_a, cur.frames_b, cur.frames_t, cur.root, prev=prev,
                                               alpha=a), max(5, args.repeat // 3))
     rows.append(("evaluate_world (stateless)", ms, out_ew))
@@ -136,6 +144,12 @@ def main(argv=None):
     load = os.getloadavg()
     print(f"pose evaluation: {n} characters x {J} joints, default library {len(g.frame_height)} frames, "
           f"alpha {a}; table build {build_ms:.0f} ms (once per library)")
+    if pose_kernels.AVAILABLE:
+        import numba
+        print(f"fused kernels: numba {numba.__version__}, {numba.get_num_threads()} threads; first call "
+              f"{compile_ms:.0f} ms (compile or load from cache)")
+    else:
+        print("fused kernels: numba not importable; numpy path only")
     print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs"
           + (f"; loops timed on {m} characters and scaled to {n}" if m != n else ""))
     print()
@@ -153,6 +167,7 @@ def main(argv=None):
         print(f"{name:<40} {best:>11.2f} {med:>8.2f} {1e3 / med:>9.1f} {loop_ms / med:>8.0f}x {d:>15.4f} m")
     print()
     tick_med = float(np.median(rows[0][1]))
+    print(f"{rows[0][0]}:")
     print(f"per tick (push + one frame): median {tick_med:.2f} ms = {1e3 / tick_med:.0f} ticks/s "
           f"(target <= 3 ms); {loop_ms / tick_med:.0f}x the per-character loop (target >= 30x)")
 

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .crowd.tracks import evaluate_poses
+from . import pose_kernels as _kernels
 from .motion import quat
 from .motion.fk import forward_kinematics
 
@@ -277,10 +278,17 @@ class PoseBatch:
     (both ticks = the new state).
 
     :meth:`positions` returns a view of an internal buffer that the next call overwrites.
+
+    ``fused`` (default: when numba is available) evaluates a push and an interpolation each in
+    one parallel pass per character (:mod:`runtime.pose_kernels`); ``fused=False`` runs the
+    numpy passes described in the module docstring. Both compute the same float32 formula.
     """
 
-    def __init__(self, graph):
+    def __init__(self, graph, fused: bool | None = None):
         self.graph = graph
+        self.fused = _kernels.AVAILABLE if fused is None else bool(fused)
+        if self.fused and not _kernels.AVAILABLE:
+            raise RuntimeError("fused pose kernels need numba, which could not be imported")
         self.table = PoseTable.for_graph(graph)
         self.num_joints = self.table.num_joints
         self.prev: PoseState | None = None
@@ -305,8 +313,12 @@ class PoseBatch:
         n = len(st)
         J = self.num_joints
         spare = self._spare if self._spare is not None and self._spare.shape == (3, n, J) else None
-        wc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
-        _place(wc, st.root, wc, self._ws)
+        if self.fused:
+            wc = spare if spare is not None else np.empty((3, n, J), dtype=np.float32)
+            _kernels.blend_place(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc)
+        else:
+            wc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
+            _place(wc, st.root, wc, self._ws)
         if self.cur is None or (keep is None and len(self.cur) != n):
             prev, wp = st.copy(), wc.copy()
         elif keep is None:
@@ -332,10 +344,11 @@ class PoseBatch:
         self._wp, self._wc = wp, wc
         # the previous tick's buffer is free again (unless it is still in use as wp)
         self._spare = old_wp if old_wp is not None and old_wp is not wp and old_wp is not wc else None
-        if self._out is None or self._d is None or self._out.shape[1] != n:
+        if self._out is None or self._out.shape[1] != n:
             self._out = np.empty_like(wc)
-            self._d = np.empty_like(wc)
-        np.subtract(wc, wp, out=self._d)
+            self._d = None if self.fused else np.empty_like(wc)
+        if not self.fused:
+            np.subtract(wc, wp, out=self._d)
 
     def roots(self, alpha: float = 1.0) -> np.ndarray:
         """Interpolated planar roots (N, 3): x, z, heading."""
@@ -355,6 +368,8 @@ class PoseBatch:
             out = self._wc
         elif alpha <= 0.0:
             out = self._wp
+        elif self.fused:
+            out = _kernels.lerp(self._wp, self._wc, alpha, self._out)
         else:
             out = np.multiply(self._d, np.float32(alpha), out=self._out)
             out += self._wp

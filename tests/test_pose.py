@@ -8,6 +8,7 @@ import pytest
 from runtime.crowd.tracks import evaluate_poses
 from runtime.motion import quat
 from runtime.motion.fk import forward_kinematics
+from runtime import pose_kernels
 from runtime.pose import PoseBatch, PoseState, PoseTable, evaluate_world, interpolate_root
 
 
@@ -165,3 +166,33 @@ def test_pose_batch_restarts_after_reset(default_graph):
     batch.push(prev)
     want = evaluate_world(g, prev.frames_a, prev.frames_b, prev.frames_t, prev.root, prev=cur, alpha=0.25)
     assert np.abs(batch.positions(0.25) - want).max() < 1e-5
+
+
+@pytest.mark.parametrize("fused", [False, pytest.param(True, marks=pytest.mark.skipif(
+    not pose_kernels.AVAILABLE, reason="numba is not importable here"))])
+def test_pose_batch_over_ticks_equals_the_stateless_evaluator(default_graph, fused):
+    """Ticks where most characters advance one library frame, some jump to another clip, some
+    stay, some blend between unrelated frames: every tick's interpolated positions equal the
+    stateless evaluator, on the fused (numba) path and on the numpy path."""
+    g = default_graph
+    rng = np.random.default_rng(11)
+    n, T = 300, len(g.frame_height)
+    _, st = _states(g, n, rng)
+    batch = PoseBatch(g, fused=fused)
+    assert batch.fused == fused
+    batch.push(st)
+    for tick in range(8):
+        fa = np.minimum(st.frames_a + 1, T - 2)
+        jump = rng.random(n) < 0.2
+        fa[jump] = rng.integers(0, T - 2, jump.sum())
+        stay = rng.random(n) < 0.1
+        fa[stay] = st.frames_a[stay]
+        fb = fa + 1
+        odd = rng.random(n) < 0.05
+        fb[odd] = rng.integers(0, T, odd.sum())
+        nxt = PoseState(fa, fb, rng.random(n).astype(np.float32), st.root + rng.normal(0, 0.05, (n, 3)))
+        batch.push(nxt)
+        for alpha in (0.0, 0.6, 1.0):
+            want = evaluate_world(g, nxt.frames_a, nxt.frames_b, nxt.frames_t, nxt.root, prev=st, alpha=alpha)
+            assert np.abs(batch.positions(alpha) - want).max() < 1e-5, (tick, alpha)
+        st = nxt
