@@ -16,7 +16,10 @@ total), the size on disk (all layers) and the speed-up against the baseline:
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -98,6 +101,32 @@ def _size(path: Path) -> tuple[float, int]:
     return sum(os.path.getsize(f) for f in files) / 1e6, len(files)
 
 
+METHODS = ("set", "layer", "clips")
+
+
+def run_method(a, method: str) -> dict:
+    """Build and save one way in this process (a fresh one per method: see main)."""
+    graph = load_library("default")
+    tracks = make_tracks(graph, a.characters, a.frames)
+    if method == "set":
+        label, build, save = "Usd Attribute.Set per sample", lambda out: bake_attribute_set(tracks, graph, 30.0), save_stage
+    elif method == "layer":
+        label, build, save = "Sdf change block, one layer", lambda out: build_crowd_stage(tracks, graph, 30.0), save_stage
+    else:
+        label = f"value clips {a.clips_per}/layer, {a.workers} proc"
+        build = lambda out: build_crowd_stage(tracks, graph, 30.0, out_path=out, clips_per=a.clips_per,  # noqa: E731
+                                              workers=a.workers)
+        save = save_crowd_stage
+    out = Path(a.dir) / f"bake_{method}{a.ext}"
+    c0, t0 = _cpu(), time.perf_counter()
+    stage = build(out)
+    t1 = time.perf_counter()
+    save(stage, out)
+    t2 = time.perf_counter()
+    mb, nf = _size(out)
+    return dict(label=label, author=t1 - t0, save=t2 - t1, cpu=_cpu() - c0, mb=mb, files=nf)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--characters", type=int, default=1000)
@@ -105,7 +134,12 @@ def main(argv=None):
     p.add_argument("--ext", default=".usdc", choices=[".usdc", ".usda"])
     p.add_argument("--clips-per", type=int, default=100, help="characters per value-clip layer")
     p.add_argument("--workers", type=int, default=2, help="processes writing clip layers")
+    p.add_argument("--method", choices=METHODS, help=argparse.SUPPRESS)   # internal: one method, JSON out
+    p.add_argument("--dir", help=argparse.SUPPRESS)
     a = p.parse_args(argv)
+    if a.method:
+        print("RESULT " + json.dumps(run_method(a, a.method)))
+        return 0
     graph = load_library("default")
     tracks = make_tracks(graph, a.characters, a.frames)
     # what the runtime's pose evaluation alone costs (every method below includes it)
@@ -117,22 +151,21 @@ def main(argv=None):
     t_pose, c_pose = time.perf_counter() - t0, _cpu() - c0
     rows = []
     with tempfile.TemporaryDirectory() as d:
-        methods = (
-            ("Usd Attribute.Set per sample", lambda out: bake_attribute_set(tracks, graph, 30.0), save_stage),
-            ("Sdf change block, one layer", lambda out: build_crowd_stage(tracks, graph, 30.0), save_stage),
-            (f"value clips {a.clips_per}/layer, {a.workers} proc",
-             lambda out: build_crowd_stage(tracks, graph, 30.0, out_path=out, clips_per=a.clips_per,
-                                           workers=a.workers), save_crowd_stage),
-        )
-        for label, build, save in methods:
-            out = Path(d) / f"bake{len(rows)}{a.ext}"
-            c0, t0 = _cpu(), time.perf_counter()
-            stage = build(out)
-            t1 = time.perf_counter()
-            save(stage, out)
-            t2 = time.perf_counter()
-            rows.append((label, t1 - t0, t2 - t1, _cpu() - c0, *_size(out)))
-            del stage
+        # Each method runs in its own process (as a bake from the command line does), after
+        # os.sync(), so the memory and the pending disk writes of one do not weigh on the next.
+        for method in METHODS:
+            os.sync()
+            cmd = [sys.executable, __file__, "--method", method, "--dir", d, "--characters", str(a.characters),
+                   "--frames", str(a.frames), "--ext", a.ext, "--clips-per", str(a.clips_per),
+                   "--workers", str(a.workers)]
+            res = subprocess.run(cmd, capture_output=True, text=True)
+            line = [ln for ln in res.stdout.splitlines() if ln.startswith("RESULT ")]
+            if res.returncode != 0 or not line:
+                raise SystemExit(f"{method} failed:\n{res.stderr[-3000:]}")
+            r = json.loads(line[0][7:])
+            rows.append((r["label"], r["author"], r["save"], r["cpu"], r["mb"], r["files"]))
+            for f in Path(d).iterdir():
+                shutil.rmtree(f) if f.is_dir() else f.unlink()
     print(f"USD bake: {a.characters} characters x {a.frames} frames x {graph.skeleton.num_joints} joints "
           f"({a.ext}, each character its own data; {os.cpu_count()} CPUs)")
     print(f"{'method':34s}{'author s':>9s}{'save s':>8s}{'total s':>9s}{'cpu s':>8s}{'MB':>8s}{'files':>7s}"
@@ -140,10 +173,10 @@ def main(argv=None):
     base = rows[0][1] + rows[0][2]
     for label, ta, ts, cpu, mb, nf in rows:
         print(f"{label:34s}{ta:9.2f}{ts:8.2f}{ta + ts:9.2f}{cpu:8.2f}{mb:8.1f}{nf:7d}{base / (ta + ts):7.2f}x")
-    print("seconds are wall clock; author includes pose evaluation (runtime) and, for value clips, the worker "
+    print("each method in its own process after os.sync(); seconds are wall clock; author includes pose evaluation (runtime) and, for value clips, the worker "
           "processes writing their layers; cpu = CPU seconds of this process and the workers; "
           "vs Set = Attribute.Set total / total; target <= 5 s total")
-    print(f"of which pose evaluation (runtime.crowd.tracks.evaluate_poses, one process): {t_pose:.2f} s "
+    print(f"of which animation arrays (runtime.pose.skel_arrays, one process): {t_pose:.2f} s "
           f"({c_pose:.2f} cpu s)")
     try:
         print(f"load average during the run: {os.getloadavg()[0]:.2f}")

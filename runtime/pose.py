@@ -49,7 +49,7 @@ from . import pose_kernels as _kernels
 from .motion import quat
 from .motion.fk import forward_kinematics
 
-__all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root"]
+__all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root", "skel_arrays"]
 
 
 @dataclass
@@ -263,6 +263,34 @@ def _exact(graph, cur: PoseState, prev: PoseState | None, alpha):
     rot = quat.slerp(rot[0], rot[1], np.broadcast_to(a[:, None], rot.shape[1:-1]))
     pos = pos[0] + a[:, None] * (pos[1] - pos[0])
     return forward_kinematics(graph.skeleton, pos, rot)
+
+
+# -- baked animation arrays ----------------------------------------------------------------------
+
+def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = None):
+    """UsdSkel animation arrays of M frames (any mix of characters): joint translations (M, J, 3)
+    float32 (the root joint's is its world position and height, the others' the rest offsets),
+    local joint rotations (M, J, 4) float32 in the x-y-z-w memory order of ``GfQuatf`` (the
+    root's includes the heading), and ``crowdweave:root`` (M, 3) float64 (x, z, heading deg).
+
+    The arithmetic of :func:`runtime.crowd.tracks.evaluate_poses` (float32 slerp of library
+    frames); ``fused`` (default: numba available) runs it as one parallel kernel
+    (:func:`runtime.pose_kernels.skel_arrays`), else as numpy passes."""
+    fa = np.asarray(frames_a, dtype=np.int64).reshape(-1)
+    fb = np.asarray(frames_b, dtype=np.int64).reshape(-1)
+    ft = np.asarray(frames_t, dtype=np.float32).reshape(-1)
+    root = np.asarray(root, dtype=np.float64).reshape(-1, 3)
+    PoseState(fa, fb, ft, root).check(len(graph.frame_height))
+    offsets = np.asarray(graph.skeleton.offsets, dtype=np.float64)
+    if _kernels.AVAILABLE if fused is None else fused:
+        return _kernels.skel_arrays(graph.frame_rotations, graph.frame_height, offsets, fa, fb, ft, root)
+    pos, rot = evaluate_poses(graph, fa, fb, ft, root)
+    trans = np.empty(pos.shape[:1] + offsets.shape, np.float32)
+    trans[:] = offsets
+    trans[:, 0] = pos
+    q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
+    rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
+    return trans, q, rootv
 
 
 # -- render-side state ---------------------------------------------------------------------------

@@ -227,7 +227,7 @@ def test_failed_clip_layer_leaves_nothing_half_written(crowd_tracks, default_gra
     monkeypatch.setattr(usd_clips, "_export", real_export)
     bad = dict(changed)
     bad["d"] = Track(bad["d"].frames_a + 10 ** 7, bad["d"].frames_b + 10 ** 7, bad["d"].frames_t, bad["d"].root, 0)
-    with pytest.raises(IndexError):
+    with pytest.raises(ValueError, match="character 'd': track frames_a reaches frame"):
         _bake(bad, default_graph, out, clips_per=2, workers=2)
     after = {p: (tmp_path / p).read_bytes() for p in _listing(tmp_path) if (tmp_path / p).is_file()}
     assert after == before

@@ -173,17 +173,9 @@ def pose_arrays(graph, tracks: list[Track], sv: SkelValues):
     """SkelAnimation arrays of several tracks at once, concatenated over their frames:
     translations (M, J, 3) float32 (root: world position), rotations (M, J, 4) float32 in the
     x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg)."""
-    fa = np.concatenate([t.frames_a for t in tracks])
-    fb = np.concatenate([t.frames_b for t in tracks])
-    ft = np.concatenate([t.frames_t for t in tracks])
-    root = np.concatenate([t.root for t in tracks]).astype(np.float64)
-    pos, rot = evaluate_poses(graph, fa, fb, ft, root)
-    trans = np.empty(pos.shape[:1] + sv.offsets.shape, np.float32)
-    trans[:] = sv.offsets
-    trans[:, 0] = pos
-    q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
-    rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
-    return trans, q, rootv
+    from runtime.pose import skel_arrays
+    return skel_arrays(graph, np.concatenate([t.frames_a for t in tracks]), np.concatenate([t.frames_b for t in tracks]),
+                       np.concatenate([t.frames_t for t in tracks]), np.concatenate([t.root for t in tracks]))
 
 
 def author_samples(specs: list, times: list[float], trans, quats, rootv) -> None:
@@ -251,6 +243,13 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     target = stage.GetEditTarget()
     layer = target.GetLayer()
     items = [(character_path(name), tr) for name, tr in tracks.items()]
+    T = len(graph.frame_height)
+    for name, tr in tracks.items():
+        for what in ("frames_a", "frames_b"):
+            f = np.asarray(getattr(tr, what))
+            if len(f) and (f.min() < 0 or f.max() >= T):
+                raise ValueError(f"character {name!r}: track {what} reaches frame {int(f.max() if f.max() >= T else f.min())}, "
+                                 f"outside the library's {T} frames")
     seen = {}
     for name, (p, _) in zip(tracks, items):
         if p in seen:
