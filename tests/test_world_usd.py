@@ -348,3 +348,30 @@ def test_obstacles_under_the_default_prim_of_a_dcc_export(tmp_path):
     empty.GetRootLayer().Save()
     env, found, issues = read_world_report(tmp_path / "empty.usda")
     assert env.num_obstacles == 0 and any("found no obstacles" in i.reason and not i.error for i in issues)
+
+
+def test_missing_referenced_file_is_an_error_naming_the_prim_and_file(tmp_path):
+    """A reference to a file that is not there composes (USD only warns) to a prim without its
+    geometry: the reader reports it as an error on the referencing prim, naming the file."""
+    def make(s):
+        crate = UsdGeom.Xform.Define(s, "/World/Obstacles/Crate").GetPrim()
+        crate.GetReferences().AddReference("./props/crate_missing.usda")
+    path = _bad(tmp_path, "missing_ref", make)
+    with pytest.raises(WorldError) as ei:
+        read_world(path)
+    msg = str(ei.value)
+    assert "crate_missing.usda" in msg and "/World/Obstacles/Crate" in msg and path.name in msg
+    env, _, issues = read_world_report(path)
+    errs = [i for i in issues if i.error]
+    assert [i.path for i in errs] == ["/World/Obstacles/Crate"]
+    assert "referenced file not found" in errs[0].reason
+    assert "/World/Obstacles/Fine" in env.obstacle_paths
+    # the same reference to a file that exists is fine
+    (tmp_path / "props").mkdir()
+    ref = Usd.Stage.CreateNew(str(tmp_path / "props" / "crate_missing.usda"))
+    UsdGeom.Xform.Define(ref, "/Crate")
+    UsdGeom.Cube.Define(ref, "/Crate/Box")
+    ref.SetDefaultPrim(ref.GetPrimAtPath("/Crate"))
+    ref.GetRootLayer().Save()
+    env = read_world(path)
+    assert "/World/Obstacles/Crate/Box" in env.obstacle_paths

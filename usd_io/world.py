@@ -38,11 +38,12 @@ No algorithms here: the footprint maths is in ``runtime.crowd.geometry``.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pxr import Tf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from runtime.crowd.environment import MARKER_ROLES, Environment, Marker
 from runtime.crowd.geometry import (GeometryError, convex_hull, footprint_capsule, footprint_cube,
@@ -327,6 +328,31 @@ class _Reader:
                            self.poly_paths + self.circle_paths)
 
 
+_ASSET = re.compile(r"@([^@]*)@")
+
+
+def _composition_issues(stage, path: str) -> list:
+    """Errors USD met composing the stage (a referenced or sublayered file that is missing or
+    unreadable, a reference to a prim that does not exist...): USD only warns and composes
+    without the arc, so the world would silently lack what the file held. One issue per
+    error, on the prim that introduces the arc (the stage for a sublayer)."""
+    out = []
+    for e in stage.GetCompositionErrors():
+        msg = " ".join(str(e).split())
+        site = getattr(e, "rootSite", None)
+        prim = str(site.path) if site is not None and not site.path.isEmpty and site.path != Sdf.Path.absoluteRootPath \
+            else path
+        if type(e).__name__ in ("ErrorInvalidAssetPath", "ErrorInvalidSublayerPath", "ErrorMutedAssetPath"):
+            assets = _ASSET.findall(msg)
+            missing = assets[0] if assets else "?"
+            where = "sublayer" if "Sublayer" in type(e).__name__ else "referenced file"
+            reason = f"{where} not found or unreadable: {missing}"
+        else:
+            reason = f"composition error: {msg[:300]}"
+        out.append(WorldIssue(prim, reason, error=True))
+    return out
+
+
 def read_world_report(path):
     """Read a world stage, collecting problems instead of stopping at the first.
 
@@ -337,6 +363,7 @@ def read_world_report(path):
     """
     stage = _open(path)
     r = _Reader(stage, str(path))
+    r.issues.extend(_composition_issues(stage, str(path)))
     r.visit(stage.GetPseudoRoot(), False, False)
     if not r.found and not any(i.error for i in r.issues):
         r.issues.append(WorldIssue(str(path), f"found no obstacles and no markers (obstacles go under {OBSTACLES_PATH} "
