@@ -240,6 +240,8 @@ class World:
         self.frame = 0
         self.accumulator = 0.0
         self.flocks: list = []            # FlockSystems (one per DDG), stepped every tick
+        self.tilings: list = []           # TilingZones (interactive patch tiling), stepped every tick
+        self._zone_batches: dict = {}     # zone name -> (PoseBatch, frame pushed)
         self.systems: list = []           # extra per-tick systems: callables (world) -> None
         self._listeners: dict = {}
         self.events: list[Event] = []
@@ -827,6 +829,7 @@ class World:
         self._plan()
         plan_ms = (time.perf_counter() - tp) * 1000
         self._step_flocks()               # flocks, then tiling and user systems, in that order
+        self._step_tilings()
         for system in self.systems:
             system(self)
         # clocks: all read heads advance together
@@ -961,20 +964,55 @@ class World:
                 self._pose_batch.push(PoseState(*self._gather(-1)[1:]))
             self._pose_batch.push(PoseState(*self._gather(0)[1:]))
             self._pose_at, self._pose_slots = self.frame, s
-        return self._pose_batch.positions(self.alpha)
+        pos = self._pose_batch.positions(self.alpha)
+        if not self.tilings:
+            return pos
+        return np.concatenate([pos] + [self._zone_positions(z) for z in self.tilings])
+
+    def _zone_positions(self, zone):
+        """Joint world positions of a tiling zone's characters at the render time (their own
+        PoseBatch over the patch library's pose tables, pushed once per tick)."""
+        f = zone.frame_at(self.time)
+        batch, at = self._zone_batches.get(zone.name, (None, None))
+        if batch is None or len(batch) != len(zone):
+            batch, at = PoseBatch(zone.library), None
+        if at != f:
+            if at != f - 1:
+                batch.reset()
+                batch.push(zone.pose_state(f - 1 if f > 0 else f))
+            batch.push(zone.pose_state(f))
+        self._zone_batches[zone.name] = (batch, f)
+        return batch.positions(self.alpha)
 
     def hud_stats(self) -> dict:
-        return {"tick ms": round(self.stats["tick_ms"], 2), "synthesis ms": round(self.stats["plan_ms"], 2),
-                "characters": self.stats["characters"], "queue": self.stats["queue"],
-                "time s": round(self.time, 1)}
+        out = {"tick ms": round(self.stats["tick_ms"], 2), "synthesis ms": round(self.stats["plan_ms"], 2),
+               "characters": self.stats["characters"], "queue": self.stats["queue"]}
+        if self.tilings:
+            out["tiled"] = sum(len(z) for z in self.tilings)
+            out["tiling ms"] = round(self.stats.get("tiling_ms", 0.0), 2)
+        if self.flocks:
+            out["flock agents"] = int(sum(f.positions().reshape(-1, 3).shape[0] for f in self.flocks))
+        out["time s"] = round(self.time, 1)
+        return out
 
     def select(self, i) -> None:
         self.selected = i
 
     def command_go_to(self, i: int, xz) -> None:
+        """Viewer right-click: a crowd character goes to ``xz``; a tiled character's team is
+        steered there (its zone clamps the spot inside the zone)."""
         names = self.names
-        if i is not None and 0 <= i < len(names):
+        if i is None:
+            return
+        if 0 <= i < len(names):
             self.go_to(names[i], np.asarray(xz, float))
+            return
+        k = i - len(names)
+        for z in self.tilings:
+            if k < len(z):
+                z.set_target(z.team_of(k), np.asarray(xz, float))
+                return
+            k -= len(z)
 
     def box_positions(self):
         """Bottom-centre (x, y, z) and heading of every box marker, carried ones in the hands."""
@@ -1016,6 +1054,47 @@ class World:
                     carrying = False
                 else:
                     self.go_to(c.name, g.position, g.heading, g.time, queue=True)
+
+    # ------------------------------------------------------------------ tiling (paper 003)
+    def add_tiling(self, zone):
+        """Register a :class:`runtime.tiling.zone.TilingZone` (interactive motion-patch tiling
+        of its teams): stepped every tick after the flocks, drawn with the crowd (its
+        characters follow the crowd's rows in :meth:`joint_positions`)."""
+        if any(z.name == zone.name for z in self.tilings):
+            raise ValueError(f"a tiling zone named {zone.name!r} is already in the world")
+        self.tilings.append(zone)
+        return zone
+
+    def _step_tilings(self):
+        t = (self.frame + 1) * self.dt
+        ms = 0.0
+        for z in list(self.tilings):
+            try:
+                z.step(t)
+                ms += z.step_ms
+            except Exception as e:      # a failing zone never stops the loop: it stops, with an event
+                self.tilings.remove(z)
+                self._zone_batches.pop(z.name, None)
+                self._emit("warning", z.name, message=f"tiling zone stopped: {type(e).__name__}: {e}")
+        self.stats["tiling_ms"] = ms
+
+    def add_scenario_tiling(self, sc, libraries: dict | None = None) -> None:
+        """Start the ``[[tiling]]`` zones of a scenario. ``libraries`` maps a spec's ``patches``
+        to a :class:`~runtime.tiling.patch.PatchLibrary`; ``"synthetic"`` (the default) is built
+        from this world's motion graph (:func:`runtime.tiling.synthetic.synthetic_library`)."""
+        from .tiling.patch import PatchLibrary
+        from .tiling.synthetic import synthetic_library
+        from .tiling.zone import TilingZone, environment_obstacles
+        libraries = dict(libraries or {})
+        for spec in sc.tilings:
+            lib = libraries.get(spec.patches)
+            if lib is None:
+                lib = synthetic_library(self.graph, meets=4) if spec.patches == "synthetic" else PatchLibrary.load(spec.patches)
+                libraries[spec.patches] = lib
+            zone = TilingZone(spec.name, lib, spec.bounds, spec.teams, period=spec.period, horizon=spec.horizon,
+                              seed=spec.seed, obstacles=environment_obstacles(self.env, spec.bounds),
+                              start_time=self.time)
+            self.add_tiling(zone)
 
     # ------------------------------------------------------------------ flocks (paper 004)
     def add_flocks(self, ddg, positions, headings=None, regions=None, seed: int | None = None):

@@ -24,6 +24,40 @@ def test_world_applies_a_scenario(default_graph):
 
 
 @pytest.mark.slow
+def test_plaza_runs_crowd_tiling_and_flocks_in_one_tick(default_graph):
+    """The main sample shows all three systems: goal-directed crowd characters, a tiled
+    interaction zone and a flock, each advanced by the same World tick."""
+    import numpy as np
+
+    from authoring.commands.bake import load_sample
+    from runtime.world import World
+    sc, graph, env, roadmap = load_sample(ROOT / "samples" / "plaza", log=lambda *a: None, progress=False)
+    assert sc.characters and sc.tilings and sc.flocks
+    w = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=50)
+    w.apply_scenario(sc)
+    w.add_scenario_flocks(sc)
+    w.add_scenario_tiling(sc)
+    zone = w.tilings[0]
+    fpos0 = w.flock_positions()[0].copy()
+    tiled0 = zone.roots()[:, :2].copy()
+    crowd0 = w.joint_positions()[:len(w.names), 0].copy()
+    for _ in range(300):
+        w.tick()
+    pos = w.joint_positions()
+    assert pos.shape[0] == len(w.names) + len(zone) == len(sc.characters) + 8
+    assert np.linalg.norm(pos[:len(w.names), 0] - crowd0, axis=-1).max() > 1.0      # the crowd walks
+    assert np.linalg.norm(zone.roots()[:, :2] - tiled0, axis=-1).mean() > 1.0       # the teams walk
+    assert np.linalg.norm(w.flock_positions()[0] - fpos0, axis=-1).mean() > 1.0    # the birds fly
+    assert w.stats["plans_done"] > 0
+    rep = zone.check().summary()
+    assert rep["interpenetrations"] == 0 and rep["danglings"] == 0 and rep["obstacle_hits"] == 0, rep
+    # tiled characters stay inside the fenced zone (the crowd's roadmap keeps out of it)
+    x0, z0, x1, z1 = zone.bounds
+    r = zone.roots()
+    assert ((r[:, 0] > x0) & (r[:, 0] < x1) & (r[:, 1] > z0) & (r[:, 1] < z1)).all()
+
+
+@pytest.mark.slow
 @pytest.mark.display
 def test_run_headless_screenshot(tmp_path, default_graph):
     out = tmp_path / "plaza.png"
@@ -33,7 +67,7 @@ def test_run_headless_screenshot(tmp_path, default_graph):
                        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     assert out.exists() and out.stat().st_size > 10_000
-    assert "13 characters" in r.stdout
+    assert "13 characters" in r.stdout and "8 tiled" in r.stdout
 
 
 def test_display_probe_reports_why_there_is_none(monkeypatch):

@@ -98,6 +98,27 @@ def bake_flocks(sc, env, fps, num_frames):
             "passed": bool(outside == 0 and worst <= 1.1), "_arrays": arrays}
 
 
+def bake_tilings(sc, graph, env, fps, num_frames, log=None):
+    """Run the scenario's tiled interaction zones for the whole bake (the same zones a World
+    steps per tick) and check each independently (runtime.tiling.check). Returns
+    (zones, report): each zone's ``tracks()`` index its own patch library's pose tables."""
+    from runtime.world import World
+    w = World.__new__(World)            # only the tiling part of a world
+    w.env, w.graph, w.tilings, w._zone_batches, w.dt, w.fps, w.frame = env, graph, [], {}, 1.0 / fps, fps, 0
+    World.add_scenario_tiling(w, sc)
+    for f in range(1, num_frames):
+        for z in w.tilings:
+            z.step(f / fps)
+    report = {"zones": [], "passed": True}
+    for z in w.tilings:
+        s = z.check().summary()
+        ok = s["danglings"] == 0 and s["interpenetrations"] == 0 and s["frames_over_limits"] == 0 \
+            and s["obstacle_hits"] == 0
+        report["zones"].append({"name": z.name, "characters": len(z), "passed": ok, **s})
+        report["passed"] = report["passed"] and ok
+    return w.tilings, report
+
+
 def run(args) -> int:
     from tqdm import tqdm
 
@@ -132,6 +153,7 @@ def run(args) -> int:
     t_plan = time.perf_counter() - t0
     tracks = {c.name: c.track for c in result.characters}
     flock_report = bake_flocks(sc, env, result.fps, result.num_frames) if sc.flocks else None
+    zones, tiling_report = bake_tilings(sc, graph, env, result.fps, result.num_frames) if sc.tilings else ([], None)
     from usd_io.crowd import build_crowd_stage, save_crowd_stage
     world_path = None
     if sc.world:
@@ -142,6 +164,8 @@ def run(args) -> int:
     stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
                               out_path=out, clips_per=args.clips_per, workers=args.workers,
                               metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
+    for z in zones:   # tiled characters: SkelRoots like the crowd's, posed from the zone's patches
+        build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames)
     from runtime.crowd.tracks import box_trajectories
     from usd_io.crowd import write_props
     write_props(stage, box_trajectories(sc, result.characters, graph, env, result.num_frames))
@@ -157,6 +181,13 @@ def run(args) -> int:
                      "max_heading_error_deg": 0.0, "goals_in_window": 0, "poses_ok": 0, "characters_within_eps": 0,
                      "character_overlap_pairs": 0, "obstacle_overlap_characters": 0, "max_adjust_m_s": 0.0,
                      "max_adjust_deg_s": 0.0, "max_adjust_s_s": 0.0}}
+    if tiling_report:
+        report["tiling"] = tiling_report
+        report["summary"]["passed"] = report["summary"]["passed"] and tiling_report["passed"]
+        for zr in tiling_report["zones"]:
+            print(f"tiling {zr['name']}: {zr['characters']} characters, {zr['patches']} patches, danglings "
+                  f"{zr['danglings']}, interpenetrations {zr['interpenetrations']}, frames over deformation limits "
+                  f"{zr['frames_over_limits']}, obstacle hits {zr['obstacle_hits']}")
     if flock_report:
         report["flocks"] = flock_report
         report["summary"]["passed"] = report["summary"]["passed"] and flock_report["passed"]

@@ -40,12 +40,19 @@ def run(args) -> int:
     world.apply_scenario(sc)
     if sc.flocks:
         world.add_scenario_flocks(sc)
+    if sc.tilings:
+        world.add_scenario_tiling(sc)
     world.on("warning", lambda e: print(f"[{e.time:6.1f}s] warning {e.character}: {e.data.get('message', '')}",
                                          file=sys.stderr))
     info = run_viewer(world, headless=args.headless, seconds=args.seconds, screenshot=args.screenshot,
                       width=args.width, height=args.height)
     if args.screenshot:
         print(f"wrote {args.screenshot}")
-    print(f"{sc.name}: {len(world.names)} characters, {world.time:.1f} s simulated, "
+    extra = ""
+    if world.tilings:
+        extra += f", {sum(len(z) for z in world.tilings)} tiled"
+    if world.flocks:
+        extra += f", {len(world.flock_positions()[0])} flock agents"
+    print(f"{sc.name}: {len(world.names)} characters{extra}, {world.time:.1f} s simulated, "
           f"{getattr(info, 'fps', 0):.1f} fps")
     return 0

@@ -88,6 +88,24 @@ class FlockSpec:
 
 
 @dataclass
+class TilingSpec:
+    """``[[tiling]]``: a tiled interaction zone (paper 003, interactive tiling; see
+    :mod:`runtime.tiling.zone`). ``zone`` is a ``crowdweave:role = "region"`` prim whose
+    outline's bounding rectangle is the zone (``bounds`` = x0, z0, x1, z1); ``patches`` a
+    motion-patch pack (path relative to the scenario) or ``"synthetic"`` (built from the motion
+    library); each ``[[tiling.team]]`` has ``count``, ``start`` = [x, z], ``heading`` (degrees,
+    0 = +Z) and ``targets`` = [[x, z], ...] visited in turn, ``period`` seconds each."""
+    name: str
+    bounds: tuple
+    teams: list
+    patches: str = "synthetic"
+    period: float = 8.0
+    horizon: float = 1.5
+    seed: int = 0
+    zone: str | None = None
+
+
+@dataclass
 class Scenario:
     name: str
     path: str
@@ -99,6 +117,7 @@ class Scenario:
     characters: list[CharacterSpec]
     synthesis: dict = field(default_factory=dict)
     flocks: list = field(default_factory=list)
+    tilings: list = field(default_factory=list)
 
     def character(self, name: str) -> CharacterSpec:
         for c in self.characters:
@@ -107,12 +126,62 @@ class Scenario:
         raise KeyError(name)
 
 
-_TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description", "flock"}
+_TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description", "flock", "tiling"}
+_TILING = {"name", "zone", "patches", "period", "horizon", "seed", "team"}
+_TEAM = {"count", "start", "heading", "targets"}
 _FLOCK = {"name", "ddg", "count", "region", "altitude", "positions", "seed"}
 _CHAR = {"name", "start", "goal"}
 _START = {"position", "heading", "pose", "seat"}
 _GOAL = {"position", "heading", "pose", "time", "seat", "box", "after"}
 
+
+
+
+def _tiling_spec(path, ti: int, rt: dict, markers: dict) -> TilingSpec:
+    name = str(rt.get("name", f"zone{ti}"))
+    where = f"{path}: tiling {name!r}"
+    bad = set(rt) - _TILING
+    if bad:
+        raise ScenarioError(f"{where}: unknown keys {sorted(bad)}")
+    zone = rt.get("zone")
+    m = markers.get(zone) if zone is not None else None
+    if m is None or m.role != "region" or m.polygon is None:
+        raise ScenarioError(f"{where}: needs zone = a region marker with an outline in the world (got {zone!r})")
+    lo, hi = np.min(m.polygon, axis=0), np.max(m.polygon, axis=0)
+    bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    patches = str(rt.get("patches", "synthetic"))
+    if patches != "synthetic":
+        pp = Path(path).parent / patches
+        if not pp.is_file():
+            raise ScenarioError(f"{where}: patches {patches!r}: no such file ({pp})")
+        patches = str(pp)
+    teams = []
+    raw = rt.get("team", [])
+    if not isinstance(raw, list) or not raw:
+        raise ScenarioError(f"{where}: needs at least one [[tiling.team]]")
+    for k, tm in enumerate(raw):
+        tw = f"{where} team {k}"
+        bad = set(tm) - _TEAM
+        if bad:
+            raise ScenarioError(f"{tw}: unknown keys {sorted(bad)}")
+        try:
+            count = int(tm.get("count", 1))
+            start = tuple(float(v) for v in tm["start"])
+            heading = math.radians(float(tm.get("heading", 0.0)))
+            targets = [tuple(float(v) for v in t) for t in tm.get("targets", [])]
+        except (KeyError, TypeError, ValueError) as e:
+            raise ScenarioError(f"{tw}: needs count, start = [x, z], heading, targets = [[x, z], ...] ({e})") from None
+        if count < 1 or len(start) != 2 or any(len(t) != 2 for t in targets):
+            raise ScenarioError(f"{tw}: count must be >= 1, start and every target [x, z]")
+        for p in [start] + targets:
+            if not (bounds[0] < p[0] < bounds[2] and bounds[1] < p[1] < bounds[3]):
+                raise ScenarioError(f"{tw}: point {list(p)} is outside the zone {zone} {bounds}")
+        teams.append({"count": count, "start": start, "heading": heading, "targets": targets})
+    period = float(rt.get("period", 8.0))
+    horizon = float(rt.get("horizon", 1.5))
+    if period <= 0 or horizon <= 0:
+        raise ScenarioError(f"{where}: period and horizon must be positive")
+    return TilingSpec(name, bounds, teams, patches, period, horizon, int(rt.get("seed", ti)), zone)
 
 def _vec2(v, where):
     try:
@@ -154,8 +223,11 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
     names = set()
     raw_chars = data.get("character", [])
     raw_flocks = data.get("flock", [])
-    if not isinstance(raw_chars, list) or not isinstance(raw_flocks, list) or not (raw_chars or raw_flocks):
-        raise ScenarioError(f"{path}: no [[character]] or [[flock]] entries")
+    raw_tilings = data.get("tiling", [])
+    if not isinstance(raw_chars, list) or not isinstance(raw_flocks, list) or not isinstance(raw_tilings, list) \
+            or not (raw_chars or raw_flocks or raw_tilings):
+        raise ScenarioError(f"{path}: no [[character]], [[flock]] or [[tiling]] entries")
+    tilings = [_tiling_spec(path, ti, rt, markers) for ti, rt in enumerate(raw_tilings)]
     flocks = []
     for fi, rf in enumerate(raw_flocks):
         fname = str(rf.get("name", f"flock{fi}"))
@@ -255,7 +327,8 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
             spec.goals.append(GoalSpec(gpos, gh, gpose, tw, after, marker, kind))
         chars.append(spec)
     sc = Scenario(str(data.get("name", Path(path).parent.name)), path, data.get("world"),
-                  str(data.get("library", "default")), duration, int(data.get("seed", 0)), eps, chars, syn, flocks)
+                  str(data.get("library", "default")), duration, int(data.get("seed", 0)), eps, chars, syn, flocks,
+                  tilings)
     validate(sc, env, node_labels)
     return sc
 

@@ -40,6 +40,7 @@ import numpy as np
 
 from .patch import PatchLibrary
 from .result import CharacterTrack
+from .boxindex import box_samples, obb_overlap
 from .tiler import Candidate, PreparedLibrary, Region, TilerConfig, TilingState, _rot, braking
 
 __all__ = ["InteractiveTiling"]
@@ -56,7 +57,8 @@ class InteractiveTiling:
                  partner_radius: float = 1.2, partner_time: float = 0.6, partner_dir: float = 35.0,
                  label_cost: dict | None = None,
                  formation_spacing: float = 2.0, max_singles: int = 24, clearance: float = 0.35,
-                 max_retract: int = 1, max_yields: int = 4, probe: float = 1.2, temperature: float = 0.7):
+                 max_retract: int = 1, max_yields: int = 4, probe: float = 1.2, temperature: float = 0.7,
+                 first_batch: int = 4, hold: float = 1.0, park: bool = True, park_window: float = 3.0):
         prepared = library if isinstance(library, PreparedLibrary) else PreparedLibrary(library)
         self.lib = prepared
         self.library: PatchLibrary = prepared.library
@@ -85,6 +87,10 @@ class InteractiveTiling:
         self.max_yields = max_yields
         self.probe = int(round(probe * self.fps))
         self.temperature = float(temperature)
+        self.first_batch = max(1, int(first_batch))
+        self.hold = int(round(hold * self.fps))
+        self.park = bool(park)
+        self.park_window = int(round(park_window * self.fps))
         self._yields = 0
         self.clearance = clearance
         self.t = 0.0
@@ -111,6 +117,9 @@ class InteractiveTiling:
                 "label": self.log_label[p],
                 "stand": np.array([("idle" in pp.patch.labels) and pp.K == 1 for pp in pps]),
             }
+        # walking pose classes: several single patches leave them by half a metre or more
+        self.mobile = {cls: int(np.count_nonzero(~c["multi"] & (np.hypot(*(c["exz"] - c["pxz"]).T) >= 0.5))) >= 3
+                       for cls, c in self.cands.items()}
         # characters
         self.n = 0
         self.team = np.zeros(0, np.int64)
@@ -126,10 +135,14 @@ class InteractiveTiling:
         self.ban: list = []                       # per character: patches not to retry at the current tail
         self.archive: list = []                   # instances forgotten from the index (record=True)
         self.res_owner: list = []                 # per character: index owner of its reservation boxes
+        # per character: where it would stand after braking at its tail ("park" box, from frame park_q on)
+        self.park_q = np.zeros(0, np.int64)
+        self.park_box = np.zeros((0, 6))          # centre x, z, lateral axis x, z, hx, hz
+        self._multi: set = set()                  # live multi-character instances (long: they outlast horizons)
         self.targets: dict = {}
         self._owner_chars: dict = {}              # instance id -> characters it carries
         self.stats = {"extensions": 0, "multi": 0, "forced": 0, "evaluated": 0, "pruned": 0, "deferred": 0,
-                      "retracted": 0, "yielded": 0}
+                      "retracted": 0, "yielded": 0, "unparkable": 0, "rescued": 0}
         self._tick = 0
 
     # -- characters and control ------------------------------------------------------------------
@@ -188,6 +201,8 @@ class InteractiveTiling:
         self._owner_chars[iid] = [cid]
         self.res_owner.append(st.next_id)
         st.next_id += 1
+        self.park_q = np.append(self.park_q, 0)
+        self.park_box = np.concatenate([self.park_box, np.zeros((1, 6))])
         self._write(cid, iid, 0, first=True)
         self._reserve(cid)
         return cid
@@ -251,6 +266,7 @@ class InteractiveTiling:
         self.stats["extensions"] += 1
         if self.lib.patches[cand.p].K > 1:
             self.stats["multi"] += 1
+            self._multi.add(iid)
 
     def _extend(self, cid: int, depth: int = 0) -> None:
         st = self.state
@@ -297,7 +313,8 @@ class InteractiveTiling:
                 cand = st.evaluate(p, place, forced=forced, match_others=False)
                 self.stats["evaluated"] += 1
                 ign = {self.res_owner[chars_by_key[k2]] for _, k2 in forced}
-                if cand.limits_ok and not st.collides(cand, margin=st.cfg.margin + self.clearance, ignore=ign):
+                if cand.limits_ok and not st.collides(cand, margin=st.cfg.margin + self.clearance, ignore=ign) and \
+                        self._multi_park_ok(cand, [chars_by_key[k2] for _, k2 in forced]):
                     self._commit(cand, chars_by_key)
                     return
         ths = row[2] - c["pdir"][single]
@@ -306,23 +323,15 @@ class InteractiveTiling:
         places = np.column_stack([row[0] - (cs_ * pxz[:, 0] + sn_ * pxz[:, 1]), row[1] - (cs_ * pxz[:, 1] - sn_ * pxz[:, 0]),
                                   ths, row[3] - c["ptime"][single]])
         ps = c["p"][single]
-        self.stats["evaluated"] += len(single)
         own = {self.res_owner[cid]}
-        f, hits, probe_hits = st.rigid_batch_free(ps, places, margin=st.cfg.margin + self.clearance, probe=self.probe,
-                                                  ignore=own)
-        if f < 0:                                           # free but no room to go on: still better than nothing
-            ok = np.flatnonzero(hits == 0)
-            f = int(ok[np.argmin(probe_hits[ok])]) if len(ok) else -1
-        if f < 0:
-            f = st.rigid_batch_free(ps, places, ignore=own)
-        if f < 0:                                           # only others' reservations in the way
-            f, hits = st.rigid_batch_free(ps, places, ignore=set(self.res_owner), counts=True)
-        if f >= 0:
-            k = single[f]
-            self._commit(st.rigid_candidate(int(ps[f]), tuple(places[f]), [(int(c["j"][k]), key)]), chars_by_key)
+        conns = [[(int(c["j"][k]), key)] for k in single]
+        cand, hits = self._choose_single(ps, places, conns, own)
+        if cand is not None:
+            self._commit(cand, chars_by_key)
             return
         if len(single):
-            fallback = (int(ps[int(np.argmin(hits))]), tuple(places[int(np.argmin(hits))]), int(c["j"][single[int(np.argmin(hits))]]))
+            b = int(np.argmin(hits))
+            fallback = (int(ps[b]), tuple(places[b]), int(c["j"][single[b]]))
         for k in single[:self.top_k]:
             plans.append((int(c["p"][k]), self._align_row(k, c, row), [(int(c["j"][k]), key)]))
         # nothing fits: the characters whose not-yet-played patches block the least-overlapping
@@ -365,6 +374,97 @@ class InteractiveTiling:
         self.stats["forced"] += 1
         self._commit(best, chars_by_key)
 
+    def _choose_single(self, ps, places, conns, own):
+        """The first single-character candidate (preference order) that is valid with room to
+        stop after it (``probe``) and a park spot that no long multi-character instance crosses;
+        else the first valid one with the least obstructed stop; else the first that only
+        intrudes on others' reservations. Candidates are queried in two batches (the first
+        ``first_batch``, then all): the choice is the same as one batch, the work usually 4x less.
+        Returns (candidate or None, per-candidate hits of the last query)."""
+        st = self.state
+        n = len(ps)
+        self.stats["evaluated"] += n
+        if n == 0:
+            return None, np.zeros(0, np.int64)
+        m = st.cfg.margin + self.clearance
+        hits = ph = None
+        for nb in ((self.first_batch, n) if self.first_batch < n else (n,)):
+            _, hits, ph = st.rigid_batch_free(ps[:nb], places[:nb], margin=m, probe=self.probe, ignore=own)
+            for i in np.flatnonzero((hits == 0) & (ph == 0)):
+                cand = st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i])
+                if self._park_ok(cand):
+                    return cand, hits
+                self.stats["unparkable"] += 1
+        ok = np.flatnonzero(hits == 0)                      # free but no room to go on: still better than nothing
+        ok = ok[np.argsort(ph[ok], kind="stable")]
+        for i in ok:
+            cand = st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i])
+            if self._park_ok(cand):
+                return cand, hits
+        if len(ok):
+            i = int(ok[0])
+            return st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i]), hits
+        f = st.rigid_batch_free(ps, places, ignore=own)
+        if f < 0:                                           # only others' reservations in the way
+            f, hits = st.rigid_batch_free(ps, places, ignore=set(self.res_owner), counts=True)
+        if f >= 0:
+            return st.rigid_candidate(int(ps[f]), tuple(places[f]), conns[f]), hits
+        return None, hits
+
+    def _park_ok(self, cand) -> bool:
+        """Can the character stop after ``cand`` and stand there? Its park box (the last box
+        carried on braking for ``probe`` frames) must stay clear of the live multi-character
+        instances (the only ones reaching far beyond everyone's horizon) from then on."""
+        if not self.park or not self._multi:
+            return True
+        st = self.state
+        fr, _, _, _, _, cen, lat, hx, hz = st.samples(cand)[:9]
+        if len(fr) < 2:
+            return True
+        v = cen[-1] - cen[-2]
+        pc = cen[-1] + v * float(braking(self.probe, self.probe))
+        q0 = fr[-1] + self.probe
+        rp = math.hypot(hx[-1], hz[-1])
+        mg = st.cfg.margin + self.clearance
+        for iid in self._multi:
+            inst = st.inst.get(iid)
+            if inst is None:
+                continue
+            f2, _, _, _, _, c2, l2, x2, z2 = st.samples(inst)[:9]
+            sel = np.flatnonzero((f2 >= q0) & (np.hypot(c2[:, 0] - pc[0], c2[:, 1] - pc[1]) < rp + np.hypot(x2, z2) + mg))
+            if len(sel) and obb_overlap(np.broadcast_to(pc, (len(sel), 2)), np.broadcast_to(lat[-1], (len(sel), 2)),
+                                        np.full(len(sel), hx[-1]), np.full(len(sel), hz[-1]), c2[sel], l2[sel], x2[sel],
+                                        z2[sel], mg).any():
+                return False
+        return True
+
+    def _multi_park_ok(self, cand, carried) -> bool:
+        """A multi-character instance outlasts everyone's horizon: it must keep clear of the
+        park box of every character it does not carry (where that one can always stop and
+        stand), from the frame that character would stand there on: for good if its tail is a
+        standing pose class (it may need several idle patches before it can leave), for
+        ``park_window`` seconds if it walks (time enough to steer away; its later stops keep
+        clear of the instance, :meth:`_park_ok`)."""
+        if not self.park:
+            return True
+        st = self.state
+        others = np.setdiff1d(np.arange(self.n), np.asarray(list(carried), np.int64))
+        if not len(others):
+            return True
+        fr, _, _, _, _, cen, lat, hx, hz = st.samples(cand)[:9]
+        pb = self.park_box[others]
+        rp = np.hypot(pb[:, 4], pb[:, 5])
+        mg = st.cfg.margin + self.clearance
+        pq = self.park_q[others][None, :]
+        cls = [int(st.dang.rows[st.dang.where[self.tail[o]], 7]) for o in others]
+        win = np.array([self.park_window if self.mobile.get(k, False) else 10 ** 9 for k in cls])[None, :]
+        near = (fr[:, None] >= pq) & (fr[:, None] < pq + win) & (
+            np.hypot(cen[:, None, 0] - pb[None, :, 0], cen[:, None, 1] - pb[None, :, 1]) < np.hypot(hx, hz)[:, None] + rp[None, :] + mg)
+        a, b = np.nonzero(near)
+        if not len(a):
+            return True
+        return not obb_overlap(cen[a], lat[a], hx[a], hz[a], pb[b, :2], pb[b, 2:4], pb[b, 4], pb[b, 5], mg).any()
+
     def _reserve(self, cid: int) -> None:
         """Reserve where the character will be just after its tail: its last box carried on at the
         last velocity for ``probe`` frames, so others keep out of the way it must go on."""
@@ -379,10 +479,15 @@ class InteractiveTiling:
         q_end = inst.time[b - 1] * self.fps
         v = (inst.xz[b - 1] - inst.xz[b - 2]) / max((inst.time[b - 1] - inst.time[b - 2]) * self.fps, 1e-6)
         q0 = int(math.ceil(q_end - 1e-6))
-        q = np.arange(q0, q0 + self.probe)
+        q = np.arange(q0, q0 + self.probe + self.hold)
         dt = braking(q - q_end, self.probe)[:, None]
-        st.reserve(self.res_owner[cid], q, inst.xz[b - 1] + v * dt, np.full(len(q), inst.heading[b - 1]),
-                   np.repeat(pp.box[b - 1:b], len(q), 0))
+        xz = inst.xz[b - 1] + v * dt
+        hd = np.full(len(q), inst.heading[b - 1])
+        box = np.repeat(pp.box[b - 1:b], len(q), 0)
+        st.reserve(self.res_owner[cid], q, xz, hd, box)
+        cen, lat, hx, hz, _, _ = box_samples(xz[-1:], hd[-1:], box[-1:])
+        self.park_q[cid] = q0 + self.probe
+        self.park_box[cid] = [cen[0, 0], cen[0, 1], lat[0, 0], lat[0, 1], hx[0], hz[0]]
 
     def _retract(self, cid: int) -> bool:
         """Take back the character's last instance if it is single-character and has not started
@@ -481,6 +586,7 @@ class InteractiveTiling:
         for iid in old:
             inst = st.inst.pop(iid)
             st.index.remove_owner(iid)
+            self._multi.discard(iid)
             if self.record:
                 self.archive.append(inst)
             for jj, link in enumerate(inst.links):

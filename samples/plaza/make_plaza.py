@@ -15,6 +15,18 @@ def marker(stage, path, role, x, z, heading_deg):
     xf.GetPrim().CreateAttribute("crowdweave:role", Sdf.ValueTypeNames.String).Set(role)
 
 
+ZONE = (14.0, 24.0, -5.0, 5.0)     # x0, x1, z0, z1 of the tiled interaction zone's fence
+
+
+def region(stage, path, x0, z0, x1, z1):
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr([(x0, 0, z0), (x1, 0, z0), (x1, 0, z1), (x0, 0, z1)])
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    m.CreateVisibilityAttr("invisible")
+    m.GetPrim().CreateAttribute("crowdweave:role", Sdf.ValueTypeNames.String).Set("region")
+
+
 def world():
     stage = Usd.Stage.CreateNew(str(HERE / "world.usda"))
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
@@ -38,6 +50,20 @@ def world():
     kiosk.CreateSizeAttr(1.0)
     UsdGeom.Xformable(kiosk).AddTranslateOp().Set(Gf.Vec3d(10.5, 1.0, 0))
     UsdGeom.Xformable(kiosk).AddScaleOp().Set(Gf.Vec3f(1.4, 2.0, 3.0))
+    # the tiled interaction zone east of the kiosk: a low fence (an obstacle for the crowd's
+    # roadmap: the crowd planner does not see tiled characters) around a region marker
+    x0, x1, z0, z1 = ZONE
+    for name, (cx, cz, sx, sz) in {"fenceW": (x0, 0.5 * (z0 + z1), 0.2, z1 - z0 + 0.2),
+                                   "fenceE": (x1, 0.5 * (z0 + z1), 0.2, z1 - z0 + 0.2),
+                                   "fenceS": (0.5 * (x0 + x1), z0, x1 - x0 + 0.2, 0.2),
+                                   "fenceN": (0.5 * (x0 + x1), z1, x1 - x0 + 0.2, 0.2)}.items():
+        c = UsdGeom.Cube.Define(stage, f"/World/Obstacles/{name}")
+        c.CreateSizeAttr(1.0)
+        UsdGeom.Xformable(c).AddTranslateOp().Set(Gf.Vec3d(cx, 0.3, cz))
+        UsdGeom.Xformable(c).AddScaleOp().Set(Gf.Vec3f(sx, 0.6, sz))
+    UsdGeom.Scope.Define(stage, "/World/Regions")
+    region(stage, "/World/Regions/stage", x0 + 0.35, z0 + 0.35, x1 - 0.35, z1 - 0.35)
+    region(stage, "/World/Regions/sky", -16.0, -14.0, 26.0, 14.0)
     UsdGeom.Scope.Define(stage, "/World/Seats")
     # benches on a ring around the fountain, sitters facing out
     for i in range(8):
@@ -56,7 +82,8 @@ def world():
 
 def scenario():
     lines = ['name = "plaza"',
-             'description = "The product at a glance: people walk to benches and sit, meet in pairs, fetch boxes from a kiosk"',
+             'description = "The product at a glance: people walk to benches and sit, meet in pairs, fetch boxes from '
+             'a kiosk; two teams meet and greet in a tiled interaction zone; birds flock overhead"',
              'world = "world.usda"', 'library = "default"', 'duration = 40.0', 'seed = 0', '']
 
     def char(name, x, z, h, goals):
@@ -88,6 +115,20 @@ def scenario():
         char(f"mover{i}", 4.0 + 1.5 * i, 9.0, 180.0,
              [{"box": f'"/World/Boxes/b{i}"'},
               {"position": f"[{-2.0 + 2.0 * i:.2f}, 9.5]", "heading": "0.0", "pose": '"stand"'}])
+    # the tiled interaction zone: two teams of four swap ends and meet in the middle
+    x0, x1, z0, z1 = ZONE
+    cx, cz = 0.5 * (x0 + x1), 0.5 * (z0 + z1)
+    lines += ["[[tiling]]", 'name = "stage"', 'zone = "/World/Regions/stage"', 'patches = "synthetic"',
+              "period = 8.0", "seed = 0", ""]
+    for k, s in enumerate((-1, 1)):
+        sx = cx + s * 3.0
+        lines += ["  [[tiling.team]]", "  count = 4", f"  start = [{sx:.2f}, {cz:.2f}]",
+                  f"  heading = {-90.0 * s:.1f}",
+                  f"  targets = [[{cx - s * 3.0:.2f}, {cz:.2f}], [{cx + s * 0.9:.2f}, {cz + s * 1.0:.2f}], "
+                  f"[{cx + s * 3.0:.2f}, {cz:.2f}]]", ""]
+    # a flock of birds over the plaza (the same recording recipe as samples/flock_region_3d)
+    lines += ["[[flock]]", 'name = "birds"', "ddg = { dim = 3, agents = 20, seconds = 150.0, seed = 1 }", "count = 2",
+              'region = "/World/Regions/sky"', "altitude = [8.0, 22.0]", ""]
     (HERE / "scenario.toml").write_text("\n".join(lines))
 
 
