@@ -55,6 +55,10 @@ def test_plaza_runs_crowd_tiling_and_flocks_in_one_tick(default_graph):
     x0, z0, x1, z1 = zone.bounds
     r = zone.roots()
     assert ((r[:, 0] > x0) & (r[:, 0] < x1) & (r[:, 1] > z0) & (r[:, 1] < z1)).all()
+    # and the birds keep inside their sky box (the flocks' independent walk checker)
+    from authoring.commands.bake import bake_flocks
+    rep = bake_flocks(sc, env, 30.0, 900)
+    assert rep["passed"] and rep["frames_outside"] == 0, {k: v for k, v in rep.items() if k != "_arrays"}
 
 
 @pytest.mark.slow

@@ -58,7 +58,7 @@ class InteractiveTiling:
                  label_cost: dict | None = None,
                  formation_spacing: float = 2.0, max_singles: int = 24, clearance: float = 0.35,
                  max_retract: int = 1, max_yields: int = 4, probe: float = 1.2, temperature: float = 0.7,
-                 first_batch: int = 4, hold: float = 1.0, park: bool = True, park_window: float = 3.0):
+                 first_batch: int = 4, hold: float = 1.0, park: bool = True, berth: float = 0.5):
         prepared = library if isinstance(library, PreparedLibrary) else PreparedLibrary(library)
         self.lib = prepared
         self.library: PatchLibrary = prepared.library
@@ -90,7 +90,7 @@ class InteractiveTiling:
         self.first_batch = max(1, int(first_batch))
         self.hold = int(round(hold * self.fps))
         self.park = bool(park)
-        self.park_window = int(round(park_window * self.fps))
+        self.berth = float(berth)
         self._yields = 0
         self.clearance = clearance
         self.t = 0.0
@@ -412,9 +412,11 @@ class InteractiveTiling:
         return None, hits
 
     def _park_ok(self, cand) -> bool:
-        """Can the character stop after ``cand`` and stand there? Its park box (the last box
-        carried on braking for ``probe`` frames) must stay clear of the live multi-character
-        instances (the only ones reaching far beyond everyone's horizon) from then on."""
+        """Can the character stop after ``cand`` and stand there? Its exit box (from the exit on)
+        and its park box (the last box carried on braking for ``probe`` frames, from the stop
+        on) must keep ``berth`` metres more than the clearance from the live multi-character
+        instances (the only ones reaching far beyond everyone's horizon): a character that
+        ends a patch where an interaction will pass later could be cornered there."""
         if not self.park or not self._multi:
             return True
         st = self.state
@@ -422,29 +424,42 @@ class InteractiveTiling:
         if len(fr) < 2:
             return True
         v = cen[-1] - cen[-2]
-        pc = cen[-1] + v * float(braking(self.probe, self.probe))
-        q0 = fr[-1] + self.probe
+        # the exit box from the exit on, and the park box from the stop on, with a berth
+        pcs = np.stack([cen[-1], cen[-1] + v * float(braking(self.probe, self.probe))])
+        q0s = np.array([fr[-1], fr[-1] + self.probe])
         rp = math.hypot(hx[-1], hz[-1])
-        mg = st.cfg.margin + self.clearance
+        mg = st.cfg.margin + self.clearance + self.berth
         for iid in self._multi:
             inst = st.inst.get(iid)
             if inst is None:
                 continue
             f2, _, _, _, _, c2, l2, x2, z2 = st.samples(inst)[:9]
-            sel = np.flatnonzero((f2 >= q0) & (np.hypot(c2[:, 0] - pc[0], c2[:, 1] - pc[1]) < rp + np.hypot(x2, z2) + mg))
-            if len(sel) and obb_overlap(np.broadcast_to(pc, (len(sel), 2)), np.broadcast_to(lat[-1], (len(sel), 2)),
-                                        np.full(len(sel), hx[-1]), np.full(len(sel), hz[-1]), c2[sel], l2[sel], x2[sel],
-                                        z2[sel], mg).any():
-                return False
+            r2 = np.hypot(x2, z2)
+            for pc, q0 in zip(pcs, q0s):
+                sel = np.flatnonzero((f2 >= q0) & (np.hypot(c2[:, 0] - pc[0], c2[:, 1] - pc[1]) < rp + r2 + mg))
+                if len(sel) and obb_overlap(np.broadcast_to(pc, (len(sel), 2)), np.broadcast_to(lat[-1], (len(sel), 2)),
+                                            np.full(len(sel), hx[-1]), np.full(len(sel), hz[-1]), c2[sel], l2[sel],
+                                            x2[sel], z2[sel], mg).any():
+                    return self._exit_lookahead(cand)
         return True
 
+    def _exit_lookahead(self, cand) -> bool:
+        """:meth:`_lookahead` from the exit of a single-character candidate against the live
+        multi-character instances near it."""
+        st = self.state
+        pp = self.lib.patches[cand.p]
+        f = pp.port_frame[1]
+        row = np.zeros(10)
+        row[:4] = cand.xz[f, 0], cand.xz[f, 1], cand.heading[f], cand.time[f]
+        row[7] = pp.port_class[1]
+        M = self._multi_boxes(int(math.floor(cand.time[f] * self.fps)), cand.xz[f], 4.5)
+        return M is None or self._lookahead(row, M)
+
     def _multi_park_ok(self, cand, carried) -> bool:
-        """A multi-character instance outlasts everyone's horizon: it must keep clear of the
-        park box of every character it does not carry (where that one can always stop and
-        stand), from the frame that character would stand there on: for good if its tail is a
-        standing pose class (it may need several idle patches before it can leave), for
-        ``park_window`` seconds if it walks (time enough to steer away; its later stops keep
-        clear of the instance, :meth:`_park_ok`)."""
+        """A multi-character instance outlasts everyone's horizon, so it must not corner anyone
+        it does not carry: it keeps clear of the park box of every other character (where that
+        one would stop and stand, from then on), unless that character walks and still has a
+        way on from its tail that keeps clear of the new instance (:meth:`_lookahead`)."""
         if not self.park:
             return True
         st = self.state
@@ -455,15 +470,98 @@ class InteractiveTiling:
         pb = self.park_box[others]
         rp = np.hypot(pb[:, 4], pb[:, 5])
         mg = st.cfg.margin + self.clearance
-        pq = self.park_q[others][None, :]
-        cls = [int(st.dang.rows[st.dang.where[self.tail[o]], 7]) for o in others]
-        win = np.array([self.park_window if self.mobile.get(k, False) else 10 ** 9 for k in cls])[None, :]
-        near = (fr[:, None] >= pq) & (fr[:, None] < pq + win) & (
+        near = (fr[:, None] >= self.park_q[others][None, :]) & (
             np.hypot(cen[:, None, 0] - pb[None, :, 0], cen[:, None, 1] - pb[None, :, 1]) < np.hypot(hx, hz)[:, None] + rp[None, :] + mg)
         a, b = np.nonzero(near)
         if not len(a):
             return True
-        return not obb_overlap(cen[a], lat[a], hx[a], hz[a], pb[b, :2], pb[b, 2:4], pb[b, 4], pb[b, 5], mg).any()
+        hit = obb_overlap(cen[a], lat[a], hx[a], hz[a], pb[b, :2], pb[b, 2:4], pb[b, 4], pb[b, 5], mg)
+        o = np.argsort(fr, kind="stable")
+        M = (fr[o], cen[o], lat[o], hx[o], hz[o])
+        for k in np.unique(b[hit]):
+            row = st.dang.rows[st.dang.where[self.tail[int(others[k])]]]
+            if not self.mobile.get(int(row[7]), False) or not self._lookahead(row, M):
+                return False
+        return True
+
+    def _multi_boxes(self, q0, pc, reach):
+        """Boxes of the live multi-character instances from clock frame ``q0`` on within
+        ``reach`` of ``pc``, sorted by frame: (frames, centre, lateral axis, hx, hz) or None."""
+        st = self.state
+        parts = []
+        for iid in sorted(self._multi):
+            inst = st.inst.get(iid)
+            if inst is None:
+                continue
+            f2, _, _, _, _, c2, l2, x2, z2 = st.samples(inst)[:9]
+            m = (f2 >= q0) & (np.hypot(c2[:, 0] - pc[0], c2[:, 1] - pc[1]) < reach)
+            if m.any():
+                parts.append((f2[m], c2[m], l2[m], x2[m], z2[m]))
+        if not parts:
+            return None
+        M = [np.concatenate([p[i] for p in parts]) for i in range(5)]
+        o = np.argsort(M[0], kind="stable")
+        return tuple(x[o] for x in M)
+
+    def _lookahead(self, row, M) -> bool:
+        """Is there a single-character patch from the exit ``row`` (x, z, dir, time, .., class)
+        whose boxes keep clear of the boxes ``M`` (sorted by frame) on the same frames, its last
+        box held from its end on (the character could stop there)?"""
+        st = self.state
+        c = self.cands.get(int(row[7]))
+        if c is None:
+            return False
+        sel = np.flatnonzero(~c["multi"])
+        if not len(sel):
+            return False
+        lib = self.lib
+        if not hasattr(lib, "_flat_rest"):
+            st.rigid_batch_free(c["p"][sel[:1]], np.zeros((1, 4)) + [[0, 0, 0, -1e6]])   # builds the flat tables
+        rxz, rh, rbox, start, t0 = lib._flat_rest
+        ps = c["p"][sel]
+        th = row[2] - c["pdir"][sel]
+        cs_, sn_ = np.cos(th), np.sin(th)
+        pxz = c["pxz"][sel]
+        px = row[0] - (cs_ * pxz[:, 0] + sn_ * pxz[:, 1])
+        pz = row[1] - (cs_ * pxz[:, 1] - sn_ * pxz[:, 0])
+        fps = self.fps
+        ta = (row[3] - c["ptime"][sel] + t0[ps]) * fps
+        Nf = start[ps + 1] - start[ps]
+        q0 = np.ceil(ta - 1e-6).astype(np.int64)
+        q1 = np.ceil(ta + (Nf - 1) - 1e-6).astype(np.int64)
+        cnt = np.maximum(q1 - q0, 1)
+        n = len(ps)
+        own = np.repeat(np.arange(n), cnt)
+        q = np.repeat(q0 - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(int(cnt.sum()))
+        s_ = np.clip(q - ta[own], 0, Nf[own] - 1)
+        i0 = np.floor(s_).astype(np.int64)
+        w = s_ - i0
+        i1 = np.minimum(i0 + 1, Nf[own] - 1)
+        g0, g1 = start[ps][own] + i0, start[ps][own] + i1
+        lxz = rxz[g0] * (1 - w)[:, None] + rxz[g1] * w[:, None]
+        co, so = cs_[own], sn_[own]
+        xz = np.stack([co * lxz[:, 0] + so * lxz[:, 1] + px[own], co * lxz[:, 1] - so * lxz[:, 0] + pz[own]], 1)
+        hd = rh[g0] * (1 - w) + rh[g1] * w + th[own]
+        cen, lat, hx, hz, _, _ = box_samples(xz, hd, rbox[start[ps][own] + np.rint(s_).astype(np.int64)])
+        mg = st.cfg.margin + self.clearance
+        mf, mc, ml, mx, mz = M
+        bad = np.zeros(n, bool)
+        # same frames
+        lo = np.searchsorted(mf, q, "left")
+        k = np.searchsorted(mf, q, "right") - lo
+        if k.sum():
+            a = np.repeat(np.arange(len(q)), k)
+            bb = np.repeat(lo - np.concatenate([[0], np.cumsum(k)[:-1]]), k) + np.arange(int(k.sum()))
+            hit = obb_overlap(cen[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg)
+            bad[own[a[hit]]] = True
+        # the last box held on
+        last = np.cumsum(cnt) - 1
+        a, bb = np.nonzero((mf[None, :] > q[last][:, None]) & ~bad[:, None])
+        if len(a):
+            li = last[a]
+            hit = obb_overlap(cen[li], lat[li], hx[li], hz[li], mc[bb], ml[bb], mx[bb], mz[bb], mg)
+            bad[a[hit]] = True
+        return not bad.all()
 
     def _reserve(self, cid: int) -> None:
         """Reserve where the character will be just after its tail: its last box carried on at the

@@ -63,7 +63,7 @@ def world():
         UsdGeom.Xformable(c).AddScaleOp().Set(Gf.Vec3f(sx, 0.6, sz))
     UsdGeom.Scope.Define(stage, "/World/Regions")
     region(stage, "/World/Regions/stage", x0 + 0.35, z0 + 0.35, x1 - 0.35, z1 - 0.35)
-    region(stage, "/World/Regions/sky", -16.0, -14.0, 26.0, 14.0)
+    region(stage, "/World/Regions/sky", -35.0, -35.0, 45.0, 35.0)
     UsdGeom.Scope.Define(stage, "/World/Seats")
     # benches on a ring around the fountain, sitters facing out
     for i in range(8):
@@ -128,7 +128,7 @@ def scenario():
                   f"[{cx + s * 3.0:.2f}, {cz:.2f}]]", ""]
     # a flock of birds over the plaza (the same recording recipe as samples/flock_region_3d)
     lines += ["[[flock]]", 'name = "birds"', "ddg = { dim = 3, agents = 20, seconds = 150.0, seed = 1 }", "count = 2",
-              'region = "/World/Regions/sky"', "altitude = [8.0, 22.0]", ""]
+              'region = "/World/Regions/sky"', "altitude = [6.0, 40.0]", ""]
     (HERE / "scenario.toml").write_text("\n".join(lines))
 
 
