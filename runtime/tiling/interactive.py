@@ -3,10 +3,12 @@ stitched patches ahead of the clock for a small number of characters steered by 
 
 Every character has a *tail*: the dangling exit of the last patch instance it plays. Each
 :meth:`InteractiveTiling.step` advances the clock and, for the characters whose tail is less than
-``horizon`` seconds ahead (most urgent first; at most ``max_per_tick`` of them unless a tail is about
-to be reached -- a work budget, so runs are reproducible; ``budget_ms`` adds a wall-clock budget
-after the first extension of a tick, at the price of reproducibility), samples a new patch
-instance at the tail:
+``horizon`` seconds ahead (most urgent first), samples a new patch instance at the tail. The
+per-tick work is bounded deterministically, so runs are reproducible: at most ``max_per_tick``
+extensions, and after the first only while the tick's estimated work (counted in candidate
+queries, deformations, lookaheads and commits, about a millisecond each on a quiet machine)
+stays within ``work_budget`` -- unless a tail is about to be reached; ``budget_ms`` adds a
+wall-clock budget, at the price of reproducibility.
 
 * candidates are the library patches with an entry of the tail's pose class, aligned on the
   tail (Eq. 1-3 hold exactly, nothing deforms) -- or, for multi-character patches, fitted
@@ -16,10 +18,20 @@ instance at the tail:
   top-k at ``temperature``, i.e. ``F^(1/temperature)`` normalised): ``f1`` the squared distance from where the patch leaves the character to its team's
   target, ``f2`` the squared angle between the exit heading and the direction to the target,
   ``f4`` label costs (e.g. a bonus for interaction labels);
-* the first valid one (deformation within limits, no box overlap with any committed instance
-  or obstacle in the space-time index) is committed; a few jittered placements are tried when
-  needed. If none is valid the character gets the best single-character patch anyway (a
-  standing one when one was tried), ``stats["forced"]``.
+* the first valid one (deformation within limits, no box overlap with any committed instance,
+  reservation or obstacle in the space-time index) with room to stop after it is committed.
+  Single-character candidates are queried in growing batches (same choice, less work).
+
+Nobody may be cornered. A multi-character instance lasts several seconds, far beyond everyone's
+horizon, so (a) it is only committed if it keeps clear of the park box of every character it does
+not carry (where that one would stop: for good if it stands, else that walker must still have a
+way on that never crosses the instance's future path, a one-patch lookahead), and (b) a
+single-character candidate is preferred only if neither its path (sampled) nor its exit nor its
+park box lies on a spot a live interaction passes later (``berth``; ``near`` more, or the
+lookahead from its exit, near an interaction). When nothing is valid the character's own
+unplayed last patch is taken back, or the others' unplayed patches in the way yield, or a few
+jittered placements are tried; only then the least overlapping patch is forced
+(``stats["forced"]``; in the benchmark scenarios such a patch overlaps at most a reservation).
 
 Playback is vectorized: committed samples are written into per-character ring buffers indexed
 by clock frame, so :meth:`root_states` / :meth:`pose_refs` / :meth:`poses` are array gathers over
@@ -58,7 +70,16 @@ class InteractiveTiling:
                  label_cost: dict | None = None,
                  formation_spacing: float = 2.0, max_singles: int = 24, clearance: float = 0.35,
                  max_retract: int = 1, max_yields: int = 4, probe: float = 1.2, temperature: float = 0.7,
-                 first_batch: int = 4, hold: float = 1.0, park: bool = True, berth: float = 0.5):
+                 first_batch: int = 4, hold: float = 1.0, park: bool = True, berth: float = 0.5, near: float = 0.75,
+                 work_budget: float | None = 6.0, max_lookaheads: int = 2):
+        """New characters come with :meth:`add_character`, targets with :meth:`set_target`.
+        Work per tick: ``max_per_tick``, ``work_budget`` (estimated work units, about a
+        millisecond each on a quiet machine; None: no work budget), ``budget_ms`` (wall clock,
+        not reproducible). Search: ``first_batch`` (single-character candidates queried first),
+        ``max_singles``, ``top_k`` multi-character tries, ``jitter_tries``. Room to go on:
+        ``probe`` seconds of braking after a candidate must be free; reservations hold the
+        braked box ``hold`` seconds more. Not being cornered by interactions (``park``):
+        ``berth`` and ``near`` metres, ``max_lookaheads`` per extension."""
         prepared = library if isinstance(library, PreparedLibrary) else PreparedLibrary(library)
         self.lib = prepared
         self.library: PatchLibrary = prepared.library
@@ -91,6 +112,11 @@ class InteractiveTiling:
         self.hold = int(round(hold * self.fps))
         self.park = bool(park)
         self.berth = float(berth)
+        self.near = float(near)
+        self.work_budget = None if work_budget is None else float(work_budget)
+        self.max_lookaheads = int(max_lookaheads)
+        self._work = 0.0
+        self._la_left = self.max_lookaheads
         self._yields = 0
         self.clearance = clearance
         self.t = 0.0
@@ -142,7 +168,7 @@ class InteractiveTiling:
         self.targets: dict = {}
         self._owner_chars: dict = {}              # instance id -> characters it carries
         self.stats = {"extensions": 0, "multi": 0, "forced": 0, "evaluated": 0, "pruned": 0, "deferred": 0,
-                      "retracted": 0, "yielded": 0, "unparkable": 0, "rescued": 0}
+                      "retracted": 0, "yielded": 0, "unparkable": 0}
         self._tick = 0
 
     # -- characters and control ------------------------------------------------------------------
@@ -246,6 +272,7 @@ class InteractiveTiling:
 
     def _commit(self, cand: Candidate, chars_by_key: dict) -> None:
         st = self.state
+        self._work += 1.5
         iid = st.commit(cand)
         for j, key in cand.conns:
             cid = chars_by_key.get(key)
@@ -270,6 +297,8 @@ class InteractiveTiling:
 
     def _extend(self, cid: int, depth: int = 0) -> None:
         st = self.state
+        if depth == 0:
+            self._la_left = self.max_lookaheads
         key = self.tail[cid]
         D = st.dang
         row = D.rows[D.where[key]].copy()
@@ -312,6 +341,7 @@ class InteractiveTiling:
                     continue
                 cand = st.evaluate(p, place, forced=forced, match_others=False)
                 self.stats["evaluated"] += 1
+                self._work += 2.5
                 ign = {self.res_owner[chars_by_key[k2]] for _, k2 in forced}
                 if cand.limits_ok and not st.collides(cand, margin=st.cfg.margin + self.clearance, ignore=ign) and \
                         self._multi_park_ok(cand, [chars_by_key[k2] for _, k2 in forced]):
@@ -376,11 +406,13 @@ class InteractiveTiling:
 
     def _choose_single(self, ps, places, conns, own):
         """The first single-character candidate (preference order) that is valid with room to
-        stop after it (``probe``) and a park spot that no long multi-character instance crosses;
-        else the first valid one with the least obstructed stop; else the first that only
-        intrudes on others' reservations. Candidates are queried in two batches (the first
-        ``first_batch``, then all): the choice is the same as one batch, the work usually 4x less.
-        Returns (candidate or None, per-candidate hits of the last query)."""
+        stop after it (``probe``) and that cannot be cornered by a long multi-character
+        instance (:meth:`_park_mask`, else :meth:`_exit_lookahead`); else the first valid one
+        with the least obstructed stop (parkable first); else the first that only intrudes on
+        others' reservations. Candidates are queried in growing batches (the first
+        ``first_batch``, three times as many, then all): the choice is the same as one batch,
+        the work usually 4x less. Returns (candidate or None, per-candidate hits of the last
+        query)."""
         st = self.state
         n = len(ps)
         self.stats["evaluated"] += n
@@ -388,64 +420,109 @@ class InteractiveTiling:
             return None, np.zeros(0, np.int64)
         m = st.cfg.margin + self.clearance
         hits = ph = None
-        for nb in ((self.first_batch, n) if self.first_batch < n else (n,)):
+        park, far = self._park_mask(ps, places, extra=self.near)
+        done = 0
+        for nb in sorted({min(self.first_batch, n), min(3 * self.first_batch, n), n}):
             _, hits, ph = st.rigid_batch_free(ps[:nb], places[:nb], margin=m, probe=self.probe, ignore=own)
-            for i in np.flatnonzero((hits == 0) & (ph == 0)):
-                cand = st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i])
-                if self._park_ok(cand):
+            self._work += 1.0 + 0.17 * nb
+            free = np.flatnonzero((hits[done:] == 0) & (ph[done:] == 0)) + done
+            for k in free:
+                if far[k]:
+                    return st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k]), hits
+                # near an interaction or unparkable by the quick test: is there a way on after
+                # it (bounded lookahead)? A walker cannot turn on the spot, so one step of
+                # clearance is not enough near the path of an interaction
+                cand = st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k])
+                if self._exit_lookahead(cand):
                     return cand, hits
-                self.stats["unparkable"] += 1
+            done = nb
         ok = np.flatnonzero(hits == 0)                      # free but no room to go on: still better than nothing
-        ok = ok[np.argsort(ph[ok], kind="stable")]
-        for i in ok:
-            cand = st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i])
-            if self._park_ok(cand):
-                return cand, hits
+        ok = ok[np.lexsort((ph[ok], ~park[ok]))]             # parkable first, then the least obstructed stop
         if len(ok):
             i = int(ok[0])
+            if not park[i]:
+                # every free one may be cornered: look further ahead (a larger, still bounded, budget)
+                self._la_left = max(self._la_left, 3 * self.max_lookaheads)
+                for k in ok[:3 * self.max_lookaheads]:
+                    cand = st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k])
+                    if self._exit_lookahead(cand):
+                        return cand, hits
+                self.stats["unparkable"] += 1
             return st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i]), hits
         f = st.rigid_batch_free(ps, places, ignore=own)
+        self._work += 1.0 + 0.1 * n
         if f < 0:                                           # only others' reservations in the way
             f, hits = st.rigid_batch_free(ps, places, ignore=set(self.res_owner), counts=True)
+            self._work += 1.0 + 0.1 * n
         if f >= 0:
             return st.rigid_candidate(int(ps[f]), tuple(places[f]), conns[f]), hits
         return None, hits
 
-    def _park_ok(self, cand) -> bool:
-        """Can the character stop after ``cand`` and stand there? Its exit box (from the exit on)
-        and its park box (the last box carried on braking for ``probe`` frames, from the stop
-        on) must keep ``berth`` metres more than the clearance from the live multi-character
-        instances (the only ones reaching far beyond everyone's horizon): a character that
-        ends a patch where an interaction will pass later could be cornered there."""
-        if not self.park or not self._multi:
-            return True
+    def _park_mask(self, ps, places, extra: float = 0.0):
+        """Per rigid single-character candidate: can the character stop after it and stand
+        there? Boxes along it (start, a third, two thirds, exit: each from its frame on) and its
+        park box (the exit box carried on braking for ``probe`` frames, from the stop on) must
+        keep ``berth`` metres more than the clearance from the live multi-character instances
+        -- the only ones reaching far beyond everyone's horizon: a character that walks onto or
+        stops on a spot an interaction will pass later could be cornered there. Vectorized
+        over the candidates. Returns (parkable, parkable with ``extra`` metres more berth)."""
+        n = len(ps)
+        ok = np.ones(n, bool)
+        far = np.ones(n, bool)
+        if not self.park or not self._multi or n == 0:
+            return ok, far
         st = self.state
-        fr, _, _, _, _, cen, lat, hx, hz = st.samples(cand)[:9]
-        if len(fr) < 2:
-            return True
-        v = cen[-1] - cen[-2]
-        # the exit box from the exit on, and the park box from the stop on, with a berth
-        pcs = np.stack([cen[-1], cen[-1] + v * float(braking(self.probe, self.probe))])
-        q0s = np.array([fr[-1], fr[-1] + self.probe])
-        rp = math.hypot(hx[-1], hz[-1])
+        # whole-instance boxes first: most of the time no interaction is anywhere near
+        co = st.index._coarse[sorted(self._multi)]
+        c0 = places[:, :2].mean(0)
+        r = 7.0 + self.berth + extra + float(np.max(np.hypot(*(places[:, :2] - c0).T)))
+        if not np.any((co[:, 0] - r <= c0[0]) & (c0[0] <= co[:, 1] + r) & (co[:, 2] - r <= c0[1]) & (c0[1] <= co[:, 3] + r)
+                      & (co[:, 5] >= np.min(places[:, 3]) * self.fps)):
+            return ok, far
+        lib = self.lib
+        if not hasattr(lib, "_flat_rest"):
+            st.rigid_batch_free(ps[:1], np.zeros((1, 4)) + [[0, 0, 0, -1e6]])   # builds the flat tables
+        rxz, rh, rbox, start, t0 = lib._flat_rest
+        e = start[ps + 1] - 1
+        th = places[:, 2]
+        cs_, sn_ = np.cos(th), np.sin(th)
+
+        def world(g):
+            return np.stack([cs_ * rxz[g, 0] + sn_ * rxz[g, 1] + places[:, 0], cs_ * rxz[g, 1] - sn_ * rxz[g, 0] + places[:, 1]], 1)
+        q_start = (places[:, 3] + t0[ps]) * self.fps
+        xe, xp = world(e), world(np.maximum(e - 1, start[ps]))
+        mid = xe.mean(0)
+        M = self._multi_boxes(int(q_start.min()), mid, 4.0 + self.berth + extra + float(np.max(np.hypot(*(xe - mid).T))))
+        if M is None:
+            return ok, far
+        mf, mc, ml, mx, mz = M
         mg = st.cfg.margin + self.clearance + self.berth
-        for iid in self._multi:
-            inst = st.inst.get(iid)
-            if inst is None:
-                continue
-            f2, _, _, _, _, c2, l2, x2, z2 = st.samples(inst)[:9]
-            r2 = np.hypot(x2, z2)
-            for pc, q0 in zip(pcs, q0s):
-                sel = np.flatnonzero((f2 >= q0) & (np.hypot(c2[:, 0] - pc[0], c2[:, 1] - pc[1]) < rp + r2 + mg))
-                if len(sel) and obb_overlap(np.broadcast_to(pc, (len(sel), 2)), np.broadcast_to(lat[-1], (len(sel), 2)),
-                                            np.full(len(sel), hx[-1]), np.full(len(sel), hz[-1]), c2[sel], l2[sel],
-                                            x2[sel], z2[sel], mg).any():
-                    return self._exit_lookahead(cand)
-        return True
+        # points along the patch (its "shadow": no spot an interaction will cross later), the
+        # exit, and the park spot after braking
+        tests = []
+        for f in (0.0, 0.33, 0.67, 1.0):
+            g = start[ps] + np.floor(f * (e - start[ps])).astype(np.int64)
+            cen, lat, hx, hz, _, _ = box_samples(world(g), rh[g] + th, rbox[g])
+            tests.append((cen, lat, hx, hz, np.floor(q_start + (g - start[ps]) + 1e-6)))
+        cen, lat, hx, hz, q_end = tests[-1]
+        tests.append((cen + (xe - xp) * float(braking(self.probe, self.probe)), lat, hx, hz, q_end + self.probe))
+        for c0, lat, hx, hz, q0 in tests:
+            a, bb = np.nonzero((mf[None, :] >= q0[:, None]) & (
+                np.hypot(mc[None, :, 0] - c0[:, None, 0], mc[None, :, 1] - c0[:, None, 1]) < np.hypot(hx, hz)[:, None] + np.hypot(mx, mz)[None, :] + mg + extra))
+            if len(a):
+                hit = obb_overlap(c0[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg + extra)
+                far[a[hit]] = False
+                a, bb = a[hit], bb[hit]
+                hit = obb_overlap(c0[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg)
+                ok[a[hit]] = False
+        return ok, far & ok
 
     def _exit_lookahead(self, cand) -> bool:
         """:meth:`_lookahead` from the exit of a single-character candidate against the live
-        multi-character instances near it."""
+        multi-character instances near it (at most ``max_lookaheads`` per extension)."""
+        if self._la_left <= 0:                          # bounded work per extension
+            return False
+        self._la_left -= 1
         st = self.state
         pp = self.lib.patches[cand.p]
         f = pp.port_frame[1]
@@ -503,10 +580,12 @@ class InteractiveTiling:
         o = np.argsort(M[0], kind="stable")
         return tuple(x[o] for x in M)
 
-    def _lookahead(self, row, M) -> bool:
+    def _lookahead(self, row, M, shadow: bool = True) -> bool:
         """Is there a single-character patch from the exit ``row`` (x, z, dir, time, .., class)
-        whose boxes keep clear of the boxes ``M`` (sorted by frame) on the same frames, its last
-        box held from its end on (the character could stop there)?"""
+        whose boxes keep clear of the boxes ``M`` (sorted by frame) from their own frame on
+        (never on a spot an interaction passes later; with ``shadow=False`` only on the same
+        frame, every 5th), its last box held from its end on (the character could stop there)?"""
+        self._work += 1.5
         st = self.state
         c = self.cands.get(int(row[7]))
         if c is None:
@@ -546,26 +625,26 @@ class InteractiveTiling:
         mg = st.cfg.margin + self.clearance
         mf, mc, ml, mx, mz = M
         bad = np.zeros(n, bool)
-        # same frames
-        lo = np.searchsorted(mf, q, "left")
-        k = np.searchsorted(mf, q, "right") - lo
-        if k.sum():
-            a = np.repeat(np.arange(len(q)), k)
-            bb = np.repeat(lo - np.concatenate([[0], np.cumsum(k)[:-1]]), k) + np.arange(int(k.sum()))
+        # every 5th box and the last one of each continuation against the boxes from its frame
+        # on (a spot an interaction passes later is no place to be; the last box is held)
+        first = np.concatenate([[0], np.cumsum(cnt)[:-1]])
+        last = np.cumsum(cnt) - 1
+        sel = np.union1d(np.flatnonzero((np.arange(len(q)) - first[own]) % 5 == 0), last)
+        later = (mf[None, :] >= q[sel][:, None]) if shadow else (mf[None, :] == q[sel][:, None]) | (
+            np.isin(sel, last)[:, None] & (mf[None, :] > q[sel][:, None]))
+        a, bb = np.nonzero(later & (
+            np.hypot(mc[None, :, 0] - cen[sel, None, 0], mc[None, :, 1] - cen[sel, None, 1])
+            < np.hypot(hx[sel], hz[sel])[:, None] + np.hypot(mx, mz)[None, :] + mg))
+        if len(a):
+            a = sel[a]
             hit = obb_overlap(cen[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg)
             bad[own[a[hit]]] = True
-        # the last box held on
-        last = np.cumsum(cnt) - 1
-        a, bb = np.nonzero((mf[None, :] > q[last][:, None]) & ~bad[:, None])
-        if len(a):
-            li = last[a]
-            hit = obb_overlap(cen[li], lat[li], hx[li], hz[li], mc[bb], ml[bb], mx[bb], mz[bb], mg)
-            bad[a[hit]] = True
         return not bad.all()
 
     def _reserve(self, cid: int) -> None:
         """Reserve where the character will be just after its tail: its last box carried on at the
-        last velocity for ``probe`` frames, so others keep out of the way it must go on."""
+        last velocity, braking to a stop over ``probe`` frames and then held ``hold`` frames, so
+        others keep out of the way it must go on. The stopped box is its park box."""
         if not self.probe:
             return
         st = self.state
@@ -707,6 +786,7 @@ class InteractiveTiling:
         self.frame = int(round(self.t * self.fps))
         t0 = _time.perf_counter()
         self._yields = 0
+        self._work = 0.0
         if self.n:
             need = self.tail_time < self.t + self.horizon
             urgent_t = self.t + 3.0 / self.fps
@@ -715,6 +795,7 @@ class InteractiveTiling:
             while need.any():
                 cid = int(np.flatnonzero(need)[np.argmin(self.tail_time[need])])
                 if self.tail_time[cid] >= urgent_t and (done >= self.max_per_tick or (
+                        self.work_budget is not None and done and self._work + 2.5 > self.work_budget) or (
                         self.budget is not None and done and _time.perf_counter() - t0 > self.budget)):
                     self.stats["deferred"] += 1
                     break
