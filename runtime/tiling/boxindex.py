@@ -193,8 +193,13 @@ class BoxIndex:
         if n == 0 or not self._runs:
             return (empty, set()) if return_owners else empty
         cand = self.coarse_candidates(cen, hx, hz, frames, margin)
+        candset = np.zeros(len(self._version), bool)
+        candset[cand] = True
         if ignore is not None and len(cand):
-            cand = cand[~np.isin(cand, np.asarray(list(ignore), np.int64))]
+            ig = np.fromiter(ignore, np.int64, len(ignore)) if isinstance(ignore, (set, frozenset, list, tuple)) \
+                else np.asarray(ignore, np.int64).reshape(-1)
+            candset[ig[ig < len(candset)]] = False
+            cand = cand[candset[cand]]
         if len(cand) == 0:
             self.stats["coarse_rejects"] += 1
             return (empty, set()) if return_owners else empty
@@ -211,15 +216,12 @@ class BoxIndex:
             cj %= self.nz
         qk = self._key(frames[:, None], ci, cj).reshape(-1)
         qs = np.repeat(np.arange(n), 9)
-        # batched queries repeat cells a lot: search each distinct key once
-        uk, inv = np.unique(qk, return_inverse=True)
         hit = np.zeros(n, bool)
         owners = set()
-        candset = np.zeros(len(self._version), bool)
-        candset[cand] = True
         for keys, rows in self._runs:
-            lo = np.searchsorted(keys, uk, side="left")[inv]
-            hi = np.searchsorted(keys, uk, side="right")[inv]
+            # (binary searches of all 9 n keys cost less than de-duplicating them first)
+            lo = np.searchsorted(keys, qk, side="left")
+            hi = np.searchsorted(keys, qk, side="right")
             cnt = hi - lo
             tot = int(cnt.sum())
             if tot == 0:
