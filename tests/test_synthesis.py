@@ -141,3 +141,33 @@ def test_rooms_box_sample_passes_the_checker(default_graph):
     assert not rep["obstacle_overlaps"]
     # the route does cross the rooms: the motion runs far longer than the straight distance needs
     assert res.characters[0].arrivals[0] / 30.0 > 25.0
+
+
+def _stand_in_the_way_scenario():
+    """c0 (planned first) walks along z = 0 from x = -10 to x = 6; c1 arrives at the origin from
+    the side, on c0's path, with no time window: it would get there before c0 passes."""
+    chars = [{"name": "c0", "start": {"position": [-10.0, 0.0], "heading": 90.0, "pose": "stand"},
+              "goal": [{"position": [6.0, 0.0]}]},
+             {"name": "c1", "start": {"position": [0.0, -2.0], "heading": 0.0, "pose": "stand"},
+              "goal": [{"position": [0.0, 0.0]}]}]
+    return parse_scenario({"name": "in_the_way", "duration": 16.0, "seed": 0, "character": chars,
+                           "synthesis": {"passes": 1}})
+
+
+def test_standing_at_the_last_goal_is_clear_of_earlier_characters(default_graph, monkeypatch):
+    """After its last goal a character stands there to the end; the planner's final test
+    covers that too, so it arrives after the character planned before it has passed (the
+    checker finds no overlap). Without the test of the held position it stands in the way."""
+    import runtime.crowd.scheduler as sched
+    sc = _stand_in_the_way_scenario()
+    res = plan_scenario(sc, default_graph)
+    rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
+    assert rep["summary"]["character_overlap_pairs"] == 0, rep["character_overlaps"]
+    assert rep["summary"]["passed"]
+    c0, c1 = res.characters
+    passed_origin = int(np.argmin(np.abs(c0.track.root[:, 0])))
+    assert c1.arrivals[0] > passed_origin          # it waited for c0
+    monkeypatch.setattr(sched, "_hold_tail", lambda *a: None)
+    blind = plan_scenario(_stand_in_the_way_scenario(), default_graph)
+    rep = check_crowd(sc, {c.name: c.track for c in blind.characters}, default_graph)
+    assert rep["summary"]["character_overlap_pairs"] == 1

@@ -79,6 +79,31 @@ def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
     return Track(frames, frames.copy(), np.zeros(n_frames, np.float32), root, cfg.frame)
 
 
+def _hold_tail(lib, graph, end: Config, n_total: int):
+    """(frames, xz, radius) of idling at ``end`` from the frame after it to the scenario's end
+    (what the scheduler appends after a character's last goal)."""
+    n = n_total - end.frame
+    if n <= 1:
+        return None
+    tr = idle_track(lib, end, n)
+    frames = end.frame + np.arange(1, n)
+    rad = np.maximum(graph.frame_radius[tr.frames_a[1:]], graph.frame_radius[tr.frames_b[1:]])
+    return frames, tr.root[1:, :2], rad
+
+
+def _clear_after(planner, res, index):
+    """When ``res``'s motion is clear but holding its end position is not (the final test
+    returns one past its frames), the first frame after which the held position stays clear;
+    else None."""
+    if planner.final_collision(res, -1) != len(res.root):
+        return None
+    f2, xz2, r2 = planner.hold(res)
+    bad = np.asarray(index.overlaps(f2, xz2, np.asarray(r2, float) + planner.p.margin), dtype=bool)
+    if not bad.any():
+        return None
+    return int(f2[np.flatnonzero(bad)[-1]]) + int(round(0.5 * planner.p.fps))
+
+
 def _start_node(graph, pose: str, where: str) -> int:
     nodes = graph.nodes_with_label(pose)
     if len(nodes) == 0:
@@ -157,8 +182,20 @@ def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order
                 raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
             goal = Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
             goals.append(goal)
+            # after its last goal a character stands there to the end: that must be clear too
+            planner.hold = (lambda r: _hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None
             res = run_to_completion(planner.run(cfg, goal, rng, owner, name=f"{c.name} goal {gi}"))
             iters += res.iterations
+            if res.warning and planner.hold is not None and goal.window is None:
+                # the motion is clear but standing at the goal afterwards is in the way of a
+                # character planned earlier that passes there later: arrive after it has passed
+                late = _clear_after(planner, res, index)
+                if late is not None and late < n_total - 2 * fps:
+                    g2 = Goal(goal.position, goal.heading, goal.nodes, (late / fps, late / fps + 1.5), label=goal.label)
+                    res2 = run_to_completion(planner.run(cfg, g2, rng, owner, name=f"{c.name} goal {gi}"))
+                    iters += res2.iterations
+                    if not res2.warning:
+                        res = res2
             if res.warning:
                 warnings.append(res.warning)
                 if log:

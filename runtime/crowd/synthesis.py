@@ -263,6 +263,9 @@ class SegmentPlanner:
         self.roadmap = roadmap
         self.env = env
         self.p = params or lib.params
+        # hold(res) -> (frames, xz, radius) or None: where the character stays after the
+        # segment (its idle tail after a last goal), tested with the segment in the final test
+        self.hold = None
 
     # -- helpers -------------------------------------------------------------------------------
     def travel_state(self, start_node: int, goal: Goal) -> int:
@@ -782,7 +785,7 @@ class SegmentPlanner:
                 return None
             hit = self.final_collision(res, owner)
             if hit is not None:
-                if collision_at is None:
+                if collision_at is None and hit < len(res.root):
                     k = hit
                     a, b = max(k - 3, 0), min(k + 3, len(res.root) - 1)
                     d = res.root[b, :2] - res.root[a, :2]
@@ -1046,7 +1049,8 @@ class SegmentPlanner:
 
     def final_collision(self, res: SegmentResult, owner: int):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,
-        or None (the final test of section 3.3)."""
+        or None (the final test of section 3.3); ``len(res.root)`` when the motion is clear but
+        standing at its end afterwards (:attr:`hold`) would be in someone's way."""
         g, p = self.g, self.p
         frames = res.start_frame + np.arange(len(res.root))
         rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
@@ -1057,4 +1061,18 @@ class SegmentPlanner:
         if self.collide is not None:
             bad |= np.asarray(self.collide(frames, xz, rad), dtype=bool)
         hit = np.flatnonzero(bad)
-        return int(hit[0]) if len(hit) else None
+        if len(hit):
+            return int(hit[0])
+        if self.hold is not None:
+            tail = self.hold(res)
+            if tail is not None and len(tail[0]):
+                f2, xz2, r2 = tail
+                r2 = np.asarray(r2, dtype=np.float64) + p.margin
+                bad2 = np.zeros(len(xz2), dtype=bool)
+                if self.static is not None:
+                    bad2 |= self.static(xz2) < r2
+                if self.collide is not None:
+                    bad2 |= np.asarray(self.collide(f2, xz2, r2), dtype=bool)
+                if bad2.any():
+                    return len(res.root)
+        return None
