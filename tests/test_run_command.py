@@ -27,8 +27,6 @@ def test_world_applies_a_scenario(default_graph):
 def test_plaza_runs_crowd_tiling_and_flocks_in_one_tick(default_graph):
     """The main sample shows all three systems: goal-directed crowd characters, a tiled
     interaction zone and a flock, each advanced by the same World tick."""
-    import numpy as np
-
     from authoring.commands.bake import load_sample
     from runtime.world import World
     sc, graph, env, roadmap = load_sample(ROOT / "samples" / "plaza", log=lambda *a: None, progress=False)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Gf, Sdf, UsdGeom, Vt
 
-from runtime.crowd.tracks import Track, evaluate_poses
+from runtime.crowd.tracks import Track
 from runtime.motion import quat
 from runtime.motion.fk import forward_kinematics
 

@@ -32,11 +32,11 @@ budget.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import breadth_first_order, shortest_path
+from scipy.sparse.csgraph import shortest_path
 
 from ..motion.graph import MotionGraph, STATES, TRANSITION
 

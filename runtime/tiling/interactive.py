@@ -201,7 +201,7 @@ class InteractiveTiling:
         row = np.array([position[0], position[1], heading, self.t, 0.0, 0.0, 1, self.spawn_class, 1, 0])
         best = None
         for k in order[self.rng.permutation(len(order))]:
-            p, j = int(c["p"][k]), int(c["j"][k])
+            p = int(c["p"][k])
             place = self._align_row(k, c, row)
             cand = st.evaluate(p, place, match_others=False)
             if best is None:
@@ -523,7 +523,6 @@ class InteractiveTiling:
         if self._la_left <= 0:                          # bounded work per extension
             return False
         self._la_left -= 1
-        st = self.state
         pp = self.lib.patches[cand.p]
         f = pp.port_frame[1]
         row = np.zeros(10)
@@ -652,7 +651,7 @@ class InteractiveTiling:
         inst = st.inst[iid]
         pp = self.lib.patches[inst.p]
         k = port // 2
-        a, b = pp.frag_start[k], pp.frag_start[k + 1]
+        b = pp.frag_start[k + 1]
         q_end = inst.time[b - 1] * self.fps
         v = (inst.xz[b - 1] - inst.xz[b - 2]) / max((inst.time[b - 1] - inst.time[b - 2]) * self.fps, 1e-6)
         q0 = int(math.ceil(q_end - 1e-6))
