@@ -419,13 +419,16 @@ class InteractiveTiling:
         if n == 0:
             return None, np.zeros(0, np.int64)
         m = st.cfg.margin + self.clearance
-        hits = ph = None
         park, far = self._park_mask(ps, places, extra=self.near)
         done = 0
+        hits = np.zeros(n, np.int64)
+        ph = np.zeros(n, np.int64)
         for nb in sorted({min(self.first_batch, n), min(3 * self.first_batch, n), n}):
-            _, hits, ph = st.rigid_batch_free(ps[:nb], places[:nb], margin=m, probe=self.probe, ignore=own)
-            self._work += 1.0 + 0.17 * nb
-            free = np.flatnonzero((hits[done:] == 0) & (ph[done:] == 0)) + done
+            # each batch queries only the candidates the previous ones did not
+            _, hits[done:nb], ph[done:nb] = st.rigid_batch_free(ps[done:nb], places[done:nb], margin=m,
+                                                                 probe=self.probe, ignore=own)
+            self._work += 1.0 + 0.17 * (nb - done)
+            free = np.flatnonzero((hits[done:nb] == 0) & (ph[done:nb] == 0)) + done
             for k in free:
                 if far[k]:
                     return st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k]), hits
