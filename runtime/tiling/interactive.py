@@ -8,7 +8,13 @@ per-tick work is bounded deterministically, so runs are reproducible: at most ``
 extensions, and after the first only while the tick's estimated work (counted in candidate
 queries, deformations, lookaheads and commits, about a millisecond each on a quiet machine)
 stays within ``work_budget`` -- unless a tail is about to be reached; ``budget_ms`` adds a
-wall-clock budget, at the price of reproducibility.
+wall-clock budget, at the price of reproducibility. A long extension is *time sliced*: it is a
+generator that yields between its costly steps (candidate batches, look-aheads, interaction
+fits); once the tick's work is spent it pauses (``stats["paused"]``) and goes on first thing
+next tick, so no single tick carries a whole 24-candidate search. If anything was committed or
+taken back while it was paused, it starts again in one go before committing (its candidates
+were tested against a world that has changed). Characters about to run out of motion are
+always served at once.
 
 * candidates are the library patches with an entry of the tail's pose class, aligned on the
   tail (Eq. 1-3 hold exactly, nothing deforms) -- or, for multi-character patches, fitted
@@ -116,6 +122,8 @@ class InteractiveTiling:
         self.work_budget = None if work_budget is None else float(work_budget)
         self.max_lookaheads = int(max_lookaheads)
         self._work = 0.0
+        self._epoch = 0            # bumped by every commit and retraction (a paused search restarts)
+        self._pending = None       # (character, paused extension generator) carried to the next tick
         self._la_left = self.max_lookaheads
         self._yields = 0
         self.clearance = clearance
@@ -168,7 +176,7 @@ class InteractiveTiling:
         self.targets: dict = {}
         self._owner_chars: dict = {}              # instance id -> characters it carries
         self.stats = {"extensions": 0, "multi": 0, "forced": 0, "evaluated": 0, "pruned": 0, "deferred": 0,
-                      "retracted": 0, "yielded": 0, "unparkable": 0}
+                      "retracted": 0, "yielded": 0, "paused": 0, "unparkable": 0}
         self._tick = 0
 
     # -- characters and control ------------------------------------------------------------------
@@ -273,6 +281,7 @@ class InteractiveTiling:
     def _commit(self, cand: Candidate, chars_by_key: dict) -> None:
         st = self.state
         self._work += 1.5
+        self._epoch += 1
         iid = st.commit(cand)
         for j, key in cand.conns:
             cid = chars_by_key.get(key)
@@ -296,7 +305,17 @@ class InteractiveTiling:
             self._multi.add(iid)
 
     def _extend(self, cid: int, depth: int = 0) -> None:
+        """Extend character ``cid`` by one patch instance, in one go."""
+        for _ in self._extend_g(cid, depth, sync=True):
+            pass
+
+    def _extend_g(self, cid: int, depth: int = 0, sync: bool = False):
+        """:meth:`_extend` as a generator that yields between its costly steps (candidate
+        batches, look-aheads, interaction fits) unless ``sync``, so the tick can pause it and
+        resume it on the next one (time slicing). If anything was committed or taken back while
+        it was paused, it starts again, in one go, before committing anything."""
         st = self.state
+        epoch = self._epoch
         if depth == 0:
             self._la_left = self.max_lookaheads
         key = self.tail[cid]
@@ -342,6 +361,11 @@ class InteractiveTiling:
                 cand = st.evaluate(p, place, forced=forced, match_others=False)
                 self.stats["evaluated"] += 1
                 self._work += 2.5
+                if not sync:
+                    yield
+                    if self._epoch != epoch:
+                        yield from self._extend_g(cid, depth, sync=True)
+                        return
                 ign = {self.res_owner[chars_by_key[k2]] for _, k2 in forced}
                 if cand.limits_ok and not st.collides(cand, margin=st.cfg.margin + self.clearance, ignore=ign) and \
                         self._multi_park_ok(cand, [chars_by_key[k2] for _, k2 in forced]):
@@ -355,7 +379,10 @@ class InteractiveTiling:
         ps = c["p"][single]
         own = {self.res_owner[cid]}
         conns = [[(int(c["j"][k]), key)] for k in single]
-        cand, hits = self._choose_single(ps, places, conns, own)
+        cand, hits = yield from self._choose_single(ps, places, conns, own, sync)
+        if self._epoch != epoch:                  # paused and the world moved on: again, in one go
+            yield from self._extend_g(cid, depth, sync=True)
+            return
         if cand is not None:
             self._commit(cand, chars_by_key)
             return
@@ -388,7 +415,7 @@ class InteractiveTiling:
         # (a different previous patch opens other ways)
         if depth < self.max_retract and self._retract(cid):
             while self.tail_time[cid] < self.t + self.horizon:
-                self._extend(cid, depth + 1)
+                yield from self._extend_g(cid, depth + 1, sync=True)
             return
         # pass 2: small jitters of the preferred ones (``jitter_tries`` evaluations in all)
         for n_j in range(self.jitter_tries if depth == 0 else 0):
@@ -404,7 +431,7 @@ class InteractiveTiling:
         self.stats["forced"] += 1
         self._commit(best, chars_by_key)
 
-    def _choose_single(self, ps, places, conns, own):
+    def _choose_single(self, ps, places, conns, own, sync=True):
         """The first single-character candidate (preference order) that is valid with room to
         stop after it (``probe``) and that cannot be cornered by a long multi-character
         instance (:meth:`_park_mask`, else :meth:`_exit_lookahead`); else the first valid one
@@ -412,7 +439,8 @@ class InteractiveTiling:
         others' reservations. Candidates are queried in growing batches (the first
         ``first_batch``, three times as many, then all): the choice is the same as one batch,
         the work usually 4x less. Returns (candidate or None, per-candidate hits of the last
-        query)."""
+        query). A generator (returns that pair): it yields after each batch and look-ahead
+        unless ``sync``."""
         st = self.state
         n = len(ps)
         self.stats["evaluated"] += n
@@ -436,9 +464,14 @@ class InteractiveTiling:
                 # it (bounded lookahead)? A walker cannot turn on the spot, so one step of
                 # clearance is not enough near the path of an interaction
                 cand = st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k])
-                if self._exit_lookahead(cand):
+                ok = self._exit_lookahead(cand)
+                if not sync:
+                    yield
+                if ok:
                     return cand, hits
             done = nb
+            if not sync and done < n:
+                yield
         ok = np.flatnonzero(hits == 0)                      # free but no room to go on: still better than nothing
         ok = ok[np.lexsort((ph[ok], ~park[ok]))]             # parkable first, then the least obstructed stop
         if len(ok):
@@ -448,7 +481,10 @@ class InteractiveTiling:
                 self._la_left = max(self._la_left, 3 * self.max_lookaheads)
                 for k in ok[:3 * self.max_lookaheads]:
                     cand = st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k])
-                    if self._exit_lookahead(cand):
+                    la = self._exit_lookahead(cand)
+                    if not sync:
+                        yield
+                    if la:
                         return cand, hits
                 self.stats["unparkable"] += 1
             return st.rigid_candidate(int(ps[i]), tuple(places[i]), conns[i]), hits
@@ -697,6 +733,7 @@ class InteractiveTiling:
         self.tail_time[cid] = st.dang.rows[st.dang.where[prev], 3]
         self.ban[cid] = {inst.p}
         self._reserve(cid)
+        self._epoch += 1
         self.stats["retracted"] += 1
         return True
 
@@ -794,14 +831,38 @@ class InteractiveTiling:
             urgent_t = self.t + 3.0 / self.fps
             done = 0
             per = np.zeros(self.n, np.int64)
-            while need.any():
-                cid = int(np.flatnonzero(need)[np.argmin(self.tail_time[need])])
-                if self.tail_time[cid] >= urgent_t and (done >= self.max_per_tick or (
-                        self.work_budget is not None and done and self._work + 2.5 > self.work_budget) or (
-                        self.budget is not None and done and _time.perf_counter() - t0 > self.budget)):
-                    self.stats["deferred"] += 1
+            while need.any() or self._pending is not None:
+                if self._pending is not None:           # the extension paused last tick goes on first
+                    cid, gen = self._pending
+                    self._pending = None
+                else:
+                    cid = int(np.flatnonzero(need)[np.argmin(self.tail_time[need])])
+                    if self.tail_time[cid] >= urgent_t and (done >= self.max_per_tick or (
+                            self.work_budget is not None and done and self._work + 2.5 > self.work_budget) or (
+                            self.budget is not None and done and _time.perf_counter() - t0 > self.budget)):
+                        self.stats["deferred"] += 1
+                        break
+                    gen = self._extend_g(cid, sync=self.work_budget is None)
+                urgent = self.tail_time[cid] < urgent_t
+                paused = False
+                for _ in gen:
+                    # time slicing: a long extension pauses between its steps once the tick's
+                    # work is spent, and goes on next tick (a tail far enough ahead can wait)
+                    if not urgent and self.work_budget is not None and self._work > self.work_budget:
+                        self._pending = (cid, gen)
+                        self.stats["paused"] += 1
+                        paused = True
+                        break
+                if paused:
+                    # only characters about to run out of motion are still served this tick
+                    for u in np.flatnonzero(self.tail_time < urgent_t):
+                        if int(u) == cid:
+                            for _ in gen:
+                                pass
+                            self._pending = None
+                        else:
+                            self._extend(int(u))
                     break
-                self._extend(cid)
                 done += 1
                 per[cid] += 1
                 # a character retracted by others' yields comes back next tick unless urgent
