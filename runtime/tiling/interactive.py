@@ -380,7 +380,16 @@ class InteractiveTiling:
         own = {self.res_owner[cid]}
         conns = [[(int(c["j"][k]), key)] for k in single]
         cand, hits = yield from self._choose_single(ps, places, conns, own, sync)
-        if self._epoch != epoch:                  # paused and the world moved on: again, in one go
+        if self._epoch != epoch:
+            # paused, and the world moved on: the choice stands if it (and room to stop after
+            # it) is still clear -- one query; else the search runs again, in one go
+            if cand is not None and self.tail[cid] == key:
+                _, h1, p1 = st.rigid_batch_free([cand.p], [cand.place], margin=st.cfg.margin + self.clearance,
+                                                probe=self.probe, ignore=own)
+                self._work += 1.2
+                if h1[0] == 0 and p1[0] == 0:
+                    self._commit(cand, chars_by_key)
+                    return
             yield from self._extend_g(cid, depth, sync=True)
             return
         if cand is not None:
