@@ -547,22 +547,27 @@ class InteractiveTiling:
         mg = st.cfg.margin + self.clearance + self.berth
         # points along the patch (its "shadow": no spot an interaction will cross later), the
         # exit, and the park spot after braking
-        tests = []
-        for f in (0.0, 0.33, 0.67, 1.0):
-            g = start[ps] + np.floor(f * (e - start[ps])).astype(np.int64)
-            cen, lat, hx, hz, _, _ = box_samples(world(g), rh[g] + th, rbox[g])
-            tests.append((cen, lat, hx, hz, np.floor(q_start + (g - start[ps]) + 1e-6)))
-        cen, lat, hx, hz, q_end = tests[-1]
-        tests.append((cen + (xe - xp) * float(braking(self.probe, self.probe)), lat, hx, hz, q_end + self.probe))
-        for c0, lat, hx, hz, q0 in tests:
-            a, bb = np.nonzero((mf[None, :] >= q0[:, None]) & (
-                np.hypot(mc[None, :, 0] - c0[:, None, 0], mc[None, :, 1] - c0[:, None, 1]) < np.hypot(hx, hz)[:, None] + np.hypot(mx, mz)[None, :] + mg + extra))
-            if len(a):
-                hit = obb_overlap(c0[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg + extra)
-                far[a[hit]] = False
-                a, bb = a[hit], bb[hit]
-                hit = obb_overlap(c0[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg)
-                ok[a[hit]] = False
+        # the four points along every candidate in one batch (rows k * n + candidate)
+        g = np.concatenate([start[ps] + np.floor(f * (e - start[ps])).astype(np.int64) for f in (0.0, 0.33, 0.67, 1.0)])
+        c4, s4, p4 = np.tile(cs_, 4), np.tile(sn_, 4), np.tile(places, (4, 1))
+        w4 = np.stack([c4 * rxz[g, 0] + s4 * rxz[g, 1] + p4[:, 0], c4 * rxz[g, 1] - s4 * rxz[g, 0] + p4[:, 1]], 1)
+        cen, lat, hx, hz, _, _ = box_samples(w4, rh[g] + np.tile(th, 4), rbox[g])
+        q0 = np.floor(np.tile(q_start, 4) + (g - np.tile(start[ps], 4)) + 1e-6)
+        # and the park box (the exit box carried on braking)
+        last = slice(3 * n, 4 * n)
+        cen = np.concatenate([cen, cen[last] + (xe - xp) * float(braking(self.probe, self.probe))])
+        lat = np.concatenate([lat, lat[last]])
+        hx, hz = np.concatenate([hx, hx[last]]), np.concatenate([hz, hz[last]])
+        q0 = np.concatenate([q0, q0[last] + self.probe])
+        cand = np.tile(np.arange(n), 5)
+        a, bb = np.nonzero((mf[None, :] >= q0[:, None]) & (
+            np.hypot(mc[None, :, 0] - cen[:, None, 0], mc[None, :, 1] - cen[:, None, 1]) < np.hypot(hx, hz)[:, None] + np.hypot(mx, mz)[None, :] + mg + extra))
+        if len(a):
+            hit = obb_overlap(cen[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg + extra)
+            far[cand[a[hit]]] = False
+            a, bb = a[hit], bb[hit]
+            hit = obb_overlap(cen[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg)
+            ok[cand[a[hit]]] = False
         return ok, far & ok
 
     def _exit_lookahead(self, cand) -> bool:
