@@ -329,14 +329,14 @@ def letter_points(word: str, n: int, spacing: float, gap: float = 2.0) -> np.nda
     return pts - [0.0, pts[:, 1].max()]
 
 
-def spell_scenario(word: str = "SCA", n: int = 70, spacing: float = 1.3, seed: int = 0) -> dict:
+def spell_scenario(word: str = "SCA", n: int = 70, spacing: float = 1.6, seed: int = 0, gap: float = 2.0) -> dict:
     """``n`` characters start in a grid 5 m behind the word (spacing 2.0 x 2.2 m), walk to the
     letter points and arrive in [17, 18] s facing the camera (+Z). The letter scale is the
     smallest that gives exactly ``n`` points at least ``spacing`` apart along the strokes.
     Starts are assigned to points by minimum total squared distance (no crossing paths in
     depth: the back of the grid takes the far side of the letters)."""
     from scipy.optimize import linear_sum_assignment
-    pts = letter_points(word, n, spacing)
+    pts = letter_points(word, n, spacing, gap)
     cols = 14
     rows = int(math.ceil(n / cols))
     gx, gz = np.meshgrid((np.arange(cols) - (cols - 1) / 2) * 2.0, pts[:, 1].min() - 5.0 - np.arange(rows) * 2.2)
@@ -684,9 +684,11 @@ and each other and the characters must interact to arrive together.
     "spell70": _readme("spell70", "paper 000, Experiment 2 (Figure 6)", """
 70 characters arrive in one window ([17, 18] s) at points spelling **SCA** on open ground,
 all facing the camera (+Z, heading 0). The block letters are polylines whose vertices are
-points and whose segments are split evenly, at least 1.3 m apart (the smallest letter scale
-that holds exactly 70 points; letters about 7 m wide, 12 m tall, read left to right with the
-tops of the letters towards -Z).
+points and whose segments are split evenly, at least 1.6 m apart (the smallest letter scale
+that holds exactly 70 points, letters 2 m apart; the word is about 33 m wide and 14 m tall, read left to right
+with the tops of the letters towards -Z). 1.6 m keeps two neighbours' bounding cylinders apart
+in any pose of the library (radius at most 0.72 m; its standing idle loops reach 0.63 m): at
+1.3 m, neighbours idling at their points overlapped whatever the planner did.
 
 The characters start in a 14 x 5 grid (2.0 x 2.2 m) 5 m behind the word, facing +Z, and are
 assigned to points by minimum total squared distance (the back of the grid takes the far side

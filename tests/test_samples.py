@@ -96,13 +96,14 @@ def test_meet20_configurations(labels):
 def test_spell70_letters(labels):
     sc, _ = load("spell70", labels)
     final = _final(sc)
-    assert make_samples.min_spacing(final) >= 1.3 - 1e-9
+    assert make_samples.min_spacing(final) >= 1.6 - 1e-9
     assert all(c.goals[0].heading == 0.0 for c in sc.characters)          # facing the camera (+Z)
     assert len({c.goals[0].time for c in sc.characters}) == 1              # one arrival window
-    # the letters are read left to right: three clusters along x
+    # the letters are read left to right: three clusters along x, 2 m apart (the widest x gaps;
+    # inside a letter consecutive points are at most 1.92 m apart along x)
     xs = np.sort(final[:, 0])
     gaps = np.diff(xs)
-    assert np.sum(gaps > 1.9) == 2
+    assert np.sum(gaps >= 2.0 - 1e-6) == 2 and np.sort(gaps)[-3] < 1.95
 
 
 def test_theater_and_fetch_seats(labels):
