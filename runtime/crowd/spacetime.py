@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SpaceTimeIndex"]
+__all__ = ["SpaceTimeIndex", "key_matches"]
 
 _BITS = 21
 _OFF = 1 << (_BITS - 1)
@@ -32,6 +32,22 @@ _MASK = (1 << _BITS) - 1
 def _key(frame, ix, iz):
     return (np.asarray(frame, np.int64) << (2 * _BITS)) | (((ix + _OFF) & _MASK) << _BITS) | ((iz + _OFF) & _MASK)
 
+
+
+def key_matches(keys: np.ndarray, qk: np.ndarray, qs: np.ndarray):
+    """Every stored row whose key equals a query key, for a sorted run ``keys``: returns
+    (query sample ``qs[k]`` of each match, row index), the ranges [lo, hi) of equal keys
+    expanded without a Python loop. Shared by the space-time indexes (this one and
+    :class:`runtime.tiling.boxindex.BoxIndex`)."""
+    lo = np.searchsorted(keys, qk, side="left")
+    hi = np.searchsorted(keys, qk, side="right")
+    cnt = hi - lo
+    tot = int(cnt.sum())
+    if tot == 0:
+        return qs[:0], lo[:0]
+    q = np.repeat(qs, cnt)
+    idx = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(tot)
+    return q, idx
 
 class SpaceTimeIndex:
     def __init__(self, cell: float = 1.2):
@@ -111,15 +127,9 @@ class SpaceTimeIndex:
         qk = _key(frames[:, None], ij[:, :1] + di[None], ij[:, 1:] + dj[None]).reshape(-1)
         qs = np.repeat(np.arange(n), 9)
         for keys, rows in self._runs:
-            lo = np.searchsorted(keys, qk, side="left")
-            hi = np.searchsorted(keys, qk, side="right")
-            cnt = hi - lo
-            tot = int(cnt.sum())
-            if tot == 0:
+            q, idx = key_matches(keys, qk, qs)
+            if len(q) == 0:
                 continue
-            # expand the ranges [lo, hi) without a Python loop
-            q = np.repeat(qs, cnt)
-            idx = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(tot)
             other = rows[idx]
             d = np.hypot(other[:, 0] - xz[q, 0], other[:, 1] - xz[q, 1])
             bad = (d < other[:, 2] + radius[q] + margin) & (other[:, 4] == self._versions(other[:, 3]))

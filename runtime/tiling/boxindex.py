@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from ..crowd.spacetime import key_matches
+
 __all__ = ["BoxIndex", "obb_overlap", "box_samples"]
 
 _BITS = 21
@@ -220,14 +222,9 @@ class BoxIndex:
         owners = set()
         for keys, rows in self._runs:
             # (binary searches of all 9 n keys cost less than de-duplicating them first)
-            lo = np.searchsorted(keys, qk, side="left")
-            hi = np.searchsorted(keys, qk, side="right")
-            cnt = hi - lo
-            tot = int(cnt.sum())
-            if tot == 0:
+            q, idx = key_matches(keys, qk, qs)
+            if len(q) == 0:
                 continue
-            q = np.repeat(qs, cnt)
-            idx = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(tot)
             other = rows[idx]
             own = other[:, OWN].astype(np.int64)
             ok = (other[:, VER] == self._version[own]) & candset[own]
