@@ -171,3 +171,46 @@ def test_standing_at_the_last_goal_is_clear_of_earlier_characters(default_graph,
     blind = plan_scenario(_stand_in_the_way_scenario(), default_graph)
     rep = check_crowd(sc, {c.name: c.track for c in blind.characters}, default_graph)
     assert rep["summary"]["character_overlap_pairs"] == 1
+
+
+def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
+    """The numba kernel (runtime.crowd.search_kernels) and the numpy passes of pair_costs
+    (Eq. 1-2) give the same best cost and the same (i, j) for random motion pairs, with and
+    without a time window."""
+    from runtime.crowd import search_kernels
+    if not search_kernels.AVAILABLE:
+        pytest.skip("numba is not installed: only the numpy path exists")
+    g = default_graph
+    planner = SegmentPlanner(MotionLibrary(g))
+    rng = np.random.default_rng(3)
+
+    def walk(n, length):
+        out = []
+        for _ in range(length):
+            e = int(rng.choice(np.flatnonzero(g.edge_src == n)))
+            out.append(e)
+            n = int(g.edge_dst[e])
+        return out
+
+    P, L = 120, 24
+    F = -np.ones((P, L), np.int64)
+    B = -np.ones((P, L), np.int64)
+    nf, nb = rng.integers(1, 20, P), rng.integers(1, 20, P)
+    start_node = int(g.edge_src[0])
+    hub = int(rng.integers(g.num_nodes))
+    for p in range(P):
+        F[p, :nf[p]] = walk(start_node, nf[p])
+        B[p, L - nb[p]:] = walk(hub if p % 2 else int(rng.integers(g.num_nodes)), nb[p])
+    planner._start_node, planner._goal_node = start_node, int(g.edge_dst[B[0, -1]])
+    start, goal = np.array([0.3, -0.2, 0.4]), np.array([5.0, 3.0, -1.0])
+    for window in (None, (3.0, 6.0)):
+        planner.compiled = True
+        c1, i1, j1 = planner.pair_costs(F, nf, B, nb, start, goal, window)
+        planner.compiled = False
+        c0, i0, j0 = planner.pair_costs(F, nf, B, nb, start, goal, window)
+        fin = np.isfinite(c0)
+        assert fin.sum() > 20 and (~fin).sum() > 0          # both kinds of pairs occur
+        np.testing.assert_array_equal(np.isfinite(c1), fin)
+        np.testing.assert_allclose(c1[fin], c0[fin], rtol=1e-12, atol=0)
+        np.testing.assert_array_equal(i1, i0)
+        np.testing.assert_array_equal(j1, j0)

@@ -39,6 +39,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 
 from ..motion.graph import MotionGraph, STATES, TRANSITION
+from . import search_kernels as _kernels
 
 __all__ = ["SynthesisParams", "Config", "Goal", "SegmentResult", "MotionLibrary", "SegmentPlanner",
            "compose", "compose_inverse", "wrap_angle"]
@@ -266,6 +267,7 @@ class SegmentPlanner:
         # hold(res) -> (frames, xz, radius) or None: where the character stays after the
         # segment (its idle tail after a last goal), tested with the segment in the final test
         self.hold = None
+        self.compiled = _kernels.AVAILABLE      # splice costs by the numba kernel
 
     # -- helpers -------------------------------------------------------------------------------
     def travel_state(self, start_node: int, goal: Goal) -> int:
@@ -576,9 +578,14 @@ class SegmentPlanner:
 
         F: (P, Lf) forward edges left-aligned, padded -1, lengths nf; B: (P, Lb) backward edges
         right-aligned (walking order), lengths nb. Returns (cost (P,), i (P,), j (P,)) where
-        the best splice joins M_f[:i] with M_b[j:] (columns of B)."""
+        the best splice joins M_f[:i] with M_b[j:] (columns of B). With numba the compiled
+        kernel of :mod:`runtime.crowd.search_kernels` computes it (same formula; set
+        ``self.compiled = False`` for the numpy passes below)."""
         lib = self.lib
         g = self.g
+        if self.compiled:
+            return _kernels.pair_costs(F, nf, B, nb, lib.disp, lib.dur, g.edge_src, g.edge_dst, start, goal,
+                                       self._start_node, self._goal_node, *self.p.alpha, window_rel)
         P, Lf = F.shape
         Lb = B.shape[1]
         a1, a2 = self.p.alpha
