@@ -214,3 +214,26 @@ def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
         np.testing.assert_allclose(c1[fin], c0[fin], rtol=1e-12, atol=0)
         np.testing.assert_array_equal(i1, i0)
         np.testing.assert_array_equal(j1, j0)
+
+
+def test_seeds_do_not_wait_for_a_wall(default_graph):
+    """A seed blocked by planned characters waits on an idle clip for them to pass; blocked by a
+    static obstacle in the same place it does not (waiting cannot move a wall)."""
+    from runtime.motion.graph import STATES
+    g = default_graph
+    lib = MotionLibrary(g)
+    loops = np.flatnonzero((g.edge_src == g.edge_dst) & (np.hypot(g.edge_disp[:, 0], g.edge_disp[:, 1]) < 0.1))
+    node = int(np.bincount(g.edge_src[loops]).argmax())          # a standing node with idle clips
+
+    def waits(static, collide):
+        planner = SegmentPlanner(lib, static=static, collide=collide)
+        planner.greedy(node, np.zeros(3), 0, np.array([[0.0, 0.0], [0.0, 6.0]]), None, STATES.index("walking"),
+                       None, False, np.random.default_rng(0), time_budget=None)
+        return planner.waited
+
+    band = lambda xz: (xz[:, 1] > 0.1) & (xz[:, 1] < 2.0) & (np.abs(xz[:, 0]) < 3.0)
+    crowd = lambda f, xz, r: band(xz) & (np.asarray(f) < 60)               # passing ahead for 2 s
+    wall = lambda xz: np.where(band(xz), -1.0, 10.0)                       # the same place, for good
+    nobody = lambda f, xz, r: np.zeros(len(f), dtype=bool)
+    assert waits(None, crowd) > 0
+    assert waits(wall, nobody) == 0

@@ -96,6 +96,8 @@ class SynthesisParams:
     carrot: float = 1.5            # seeds aim this far (m) along the way-point path ahead of themselves
     carrot_final: float = 3.0      # ... until the path's end is this close (m): then at the end itself
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
+    end_clearance: float = 0.65    # m from static obstacles a seed's edge must end (away from the goal),
+                                   # so it can walk on (a walking cylinder is up to 0.63 m); 0: off
     fps: float = 30.0
 
     @property
@@ -267,6 +269,7 @@ class SegmentPlanner:
         # hold(res) -> (frames, xz, radius) or None: where the character stays after the
         # segment (its idle tail after a last goal), tested with the segment in the final test
         self.hold = None
+        self.waited = 0             # waits of the last seed (greedy_steps)
         self.compiled = _kernels.AVAILABLE      # splice costs by the numba kernel
 
     # -- helpers -------------------------------------------------------------------------------
@@ -440,6 +443,19 @@ class SegmentPlanner:
             return self._clear(es, np.repeat(cfg[None], len(es), 0),
                                np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
                                moving=not reverse)
+        goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
+        room = self.p.end_clearance
+
+        def roomy(es):
+            """Edges whose end leaves room to walk on: ``end_clearance`` from the static
+            obstacles (a seed that stops closer, at a corner, cannot leave it), except near the
+            segment's end, where the goal itself may be close to an obstacle."""
+            if self.static is None or not room:
+                return np.ones(len(es), dtype=bool)
+            ends = compose(cfg[None], disp[es])[:, :2]
+            near = np.hypot(ends[:, 0] - goal_xz[0], ends[:, 1] - goal_xz[1]) < self.p.approach_radius
+            return near | (self.static(ends) >= room)
+
         table = lib.lookahead(reverse, travel)
         while len(edges) < self.p.max_seed_edges:
             final = place_carrot()
@@ -490,11 +506,16 @@ class SegmentPlanner:
                 cand = out[order[:12]]
                 ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
                                  np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
-                                 moving=(not reverse) or time_budget is not None)
+                                 moving=(not reverse) or time_budget is not None) & roomy(cand)
                 if ok.any():
                     pick = cand[np.argmax(ok)]
-                elif waits < self.p.max_waits:
-                    # every improving edge runs into someone already planned: wait for them
+                elif waits < self.p.max_waits and self.collide is not None and (
+                        (not reverse) or time_budget is not None) and self._clear(
+                        cand, np.repeat(cfg[None], len(cand), 0),
+                        np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
+                        moving=False).any():
+                    # every improving edge runs into someone already planned (at least one is
+                    # clear of the static obstacles: waiting cannot move a wall): wait for them
                     # to pass on the node's most stationary self-loop clip, if that is clear
                     loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
                     if len(loops):
@@ -516,7 +537,7 @@ class SegmentPlanner:
                     cand = cand[np.hypot(*(compose(cfg[None], disp[cand])[:, :2] - cfg[None, :2]).T) > 0.3]
                     ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
                                      np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
-                                     moving=(not reverse) or time_budget is not None)
+                                     moving=(not reverse) or time_budget is not None) & roomy(cand)
                     if ok.any():
                         sidesteps += 1
                         advance(cand[np.argmax(ok)])
@@ -547,6 +568,7 @@ class SegmentPlanner:
                 dist = self._bfs_dist(tgt, allowed, reverse)
             yield from self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst,
                                          disp, allowed, clear=clear_many)
+        self.waited = waits         # idle clips inserted for planned characters (diagnostics)
         return edges, node
 
     def _fewest_path(self, node, dist, advance, get_node, get_cfg, target_xz, src, dst, disp, allowed, clear=None):
