@@ -140,11 +140,17 @@ def test_grid_targets_are_a_perturbed_translation():
     start = np.array([c["start"]["position"] for c in data["character"]])
     target = np.array([c["goal"][0]["position"] for c in data["character"]])
     shift = 0.5 * 8 * 2.0 + 10.0
-    # a permutation of the translated grid, every target within one cell (diagonal) of its own
+    # a permutation of the translated grid; every path is the shift along x, and a target is
+    # its own cell or a neighbouring row's (a swap: the neighbour takes this one's)
     assert sorted(map(tuple, np.round(target - [shift, 0], 6))) == sorted(map(tuple, np.round(start, 6)))
-    off = np.abs(target - start - [shift, 0.0])
-    assert off.max() <= 2.0 * 1.0 + 1e-9
-    assert np.count_nonzero(off.sum(1) > 1e-9) >= len(start) // 3        # most are perturbed
+    off = target - start - [shift, 0.0]
+    np.testing.assert_allclose(off[:, 0], 0.0, atol=1e-9)
+    assert set(np.round(off[:, 1], 6)) <= {-2.0, 0.0, 2.0}
+    swapped = np.flatnonzero(np.abs(off[:, 1]) > 1e-9)
+    for k in swapped:
+        partner = np.flatnonzero(np.all(np.abs(start - (start[k] + [0.0, off[k, 1]])) < 1e-9, axis=1))
+        assert len(partner) == 1 and np.allclose(off[partner[0], 1], -off[k, 1])
+    assert len(swapped) >= len(start) // 3                                 # most are perturbed
     assert data == make_samples.grid_scenario(8, 5, spacing=2.0, seed=3)  # seeded
     assert data != make_samples.grid_scenario(8, 5, spacing=2.0, seed=4)
 
