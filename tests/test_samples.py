@@ -283,3 +283,13 @@ def test_bad_window_too_short(labels):
     # reachable: fine
     data = _scenario([_char("runner", [{"position": [0.0, 5.0], "time": [8.0, 9.0]}])])
     _parse(data, labels)
+
+
+def test_bad_synthesis_start_still(labels):
+    from runtime.crowd.scenario import ScenarioError
+    data = _scenario([_char("walker", [{"position": [3.0, 0.0]}])], synthesis={"start_still": "yes"})
+    with pytest.raises(ScenarioError) as e:
+        _parse(data, labels)
+    assert "bad.toml" in str(e.value) and "start_still" in str(e.value)
+    data["synthesis"]["start_still"] = True
+    assert _parse(data, labels).synthesis["start_still"] is True

@@ -237,3 +237,42 @@ def test_seeds_do_not_wait_for_a_wall(default_graph):
     nobody = lambda f, xz, r: np.zeros(len(f), dtype=bool)
     assert waits(None, crowd) > 0
     assert waits(wall, nobody) == 0
+
+
+def test_still_start_node_stands_still_and_the_hub_does_not(default_graph):
+    """"stand" labels both a walking hub (the most connected node) and standing nodes; the
+    still start node idles within eps, the hub's idling walks on the spot."""
+    from runtime.crowd.scheduler import _start_node, idle_track, still_nodes
+    g = default_graph
+    params = SynthesisParams()
+    still = still_nodes(g, params.eps)
+    hub = _start_node(g, "stand", "x")
+    stand = _start_node(g, "stand", "x", still)
+    assert hub != stand and still[stand] and not still[hub]
+    lib = MotionLibrary(g, params)
+    for node, ok in ((stand, True), (hub, False)):
+        tr = idle_track(lib, Config(node, 0.0, 0.0, 0.0, 0), 61)
+        rates = adjustment_rates(g, tr, 0, len(tr) - 1, 30.0)   # the checker's per-frame adjustment
+        assert (rates[0] <= params.eps[0]) == ok
+
+
+def test_a_failed_character_is_planned_again_from_the_other_start_node(default_graph, monkeypatch):
+    """When the plan from the first start node has warnings, the scheduler plans the character
+    again from the other kind of "stand" node and keeps the clean plan."""
+    import runtime.crowd.scheduler as sched
+    real = sched._plan_character
+    calls = []
+
+    def fake(*args):
+        node = args[12]
+        calls.append(node)
+        out = real(*args)
+        return out if len(calls) > 1 else out[:3] + (["forced warning"], out[4])
+
+    monkeypatch.setattr(sched, "_plan_character", fake)
+    sc = parse_scenario({"name": "one", "duration": 8.0, "seed": 0, "synthesis": {"passes": 1},
+                         "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+                                        "goal": [{"position": [0.0, 4.0]}]}]})
+    res = plan_scenario(sc, default_graph)
+    assert len(calls) == 2 and calls[0] != calls[1]
+    assert res.characters[0].warnings == []

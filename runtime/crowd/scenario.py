@@ -9,6 +9,7 @@ seed = 0
 [synthesis]                 # optional, paper defaults
 epsilon = [0.02, 2.0, 0.0667]
 passes = 3                  # planning passes: characters left without a clean plan go first next time
+start_still = false         # true: "stand" starts on a still node (characters can wait before leaving)
 [[character]]
 name = "c01"
 start = { position = [0.0, 0.0], heading = 0.0, pose = "stand" }   # or seat = "/World/Seats/s01"
@@ -218,6 +219,8 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
     eps = tuple(float(x) for x in syn.get("epsilon", (0.02, 2.0, 1.0 / 15.0)))
     if len(eps) != 3 or min(eps) <= 0:
         raise ScenarioError(f"{path}: synthesis.epsilon must be three positive numbers")
+    if not isinstance(syn.get("start_still", False), bool):
+        raise ScenarioError(f"{path}: synthesis.start_still must be true or false")
     markers = env.markers if env is not None else {}
     chars = []
     names = set()

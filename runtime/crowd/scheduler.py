@@ -17,7 +17,7 @@ from .spacetime import SpaceTimeIndex
 from .synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .tracks import Track, concat_tracks
 
-__all__ = ["CharacterResult", "CrowdResult", "plan_scenario", "idle_track", "run_to_completion"]
+__all__ = ["CharacterResult", "CrowdResult", "plan_scenario", "idle_track", "still_nodes", "run_to_completion"]
 
 
 @dataclass
@@ -79,6 +79,26 @@ def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
     return Track(frames, frames.copy(), np.zeros(n_frames, np.float32), root, cfg.frame)
 
 
+def still_nodes(graph, eps, fps: float = 30.0) -> np.ndarray:
+    """Per node: whether idling on it stands still -- its least-drifting self-loop clip (the
+    one :func:`idle_track` repeats, its drift removed as a ramp) drifts within the per-frame
+    adjustment tolerance ``eps`` (m/s, deg/s, ...). A walking hub's self loops are walk
+    cycles: idling there would walk on the spot."""
+    g = graph
+    ep, eh = float(eps[0]), float(eps[1])
+    still = np.zeros(g.num_nodes, dtype=bool)
+    for n in range(g.num_nodes):
+        loops = np.flatnonzero((g.edge_src == n) & (g.edge_dst == n))
+        if len(loops) == 0:
+            continue
+        drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
+        e = int(loops[np.argmin(drift)])
+        d = g.edge_disp[e]
+        dur = (g.edge_frames[e] - 1) / fps
+        still[n] = dur > 0 and np.hypot(d[0], d[1]) / dur <= ep and np.degrees(abs(d[2])) / dur <= eh
+    return still
+
+
 def _hold_tail(lib, graph, end: Config, n_total: int):
     """(frames, xz, radius) of idling at ``end`` from the frame after it to the scenario's end
     (what the scheduler appends after a character's last goal)."""
@@ -104,10 +124,14 @@ def _clear_after(planner, res, index):
     return int(f2[np.flatnonzero(bad)[-1]]) + int(round(0.5 * planner.p.fps))
 
 
-def _start_node(graph, pose: str, where: str) -> int:
+def _start_node(graph, pose: str, where: str, still: np.ndarray | None = None) -> int:
     nodes = graph.nodes_with_label(pose)
     if len(nodes) == 0:
         raise ScenarioError(f"{where}: pose {pose!r} is not a node label of the library")
+    if still is not None and still[nodes].any():
+        # where one can stand still: a character waits there until it is time to go (a
+        # walking hub also labelled "stand" could not wait)
+        nodes = nodes[still[nodes]]
     # the most connected node with that label
     deg = np.bincount(graph.edge_src, minlength=graph.num_nodes)[nodes]
     return int(nodes[np.argmax(deg)])
@@ -119,6 +143,8 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     for k in ("n_m", "k_m", "n_max"):
         if k in sc.synthesis:
             setattr(params, k, int(sc.synthesis[k]))
+    if "start_still" in sc.synthesis:
+        params.start_still = bool(sc.synthesis["start_still"])
     lib = MotionLibrary(graph, params)
     fps = params.fps
     n_total = int(round(sc.duration * fps)) + 1
@@ -150,75 +176,105 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
 def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order, progress, log, k=0):
     """One pass over the characters in ``order``; each has its own random stream (seeded by
     the scenario seed, its index and the pass number ``k``), so its plan depends on the order
-    only through the characters planned before it, and a later pass searches afresh."""
+    only through the characters planned before it, and a later pass searches afresh.
+
+    A character whose start pose has two kinds of node -- the pose's most connected node and
+    one where it can stand still and wait (for "stand": a walking hub and a standing node) --
+    is planned from the first (``start_still``: the second); if that plan has warnings, it is
+    planned again from the other, and the plan with fewer warnings is kept."""
     index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05))
     results: dict[int, CharacterResult] = {}
+    still = still_nodes(graph, params.eps, fps)
     for ci in order:
-        rng = np.random.default_rng([int(sc.seed), int(ci), int(k)])
         c = sc.characters[ci]
         t0 = time.perf_counter()
-        owner = ci
-        planner = SegmentPlanner(lib, static=static,
-                                 collide=lambda f, xz, r: index.overlaps(f, xz, r),
-                                 roadmap=roadmap, env=env, params=params)
-        node = _start_node(graph, c.pose, f"{sc.path}: character {c.name!r} start")
-        cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
-        parts = []
-        arrivals, goals, warnings = [], [], []
+        where = f"{sc.path}: character {c.name!r} start"
+        starts = [_start_node(graph, c.pose, where, still if params.start_still else None),
+                  _start_node(graph, c.pose, where, None if params.start_still else still)]
+        best = None
         iters = 0
-        for gi, gs in enumerate(c.goals):
-            window = gs.time
-            if gs.after is not None:
-                other = sc.character(gs.after["character"])
-                oi = sc.characters.index(other)
-                t_other = (results[oi].arrivals[gs.after["goal"]] / fps) if oi != ci else arrivals[gs.after["goal"]] / fps
-                w = (t_other + gs.after["within"][0], t_other + gs.after["within"][1])
-                window = w if window is None else (max(w[0], window[0]), min(w[1], window[1]))
-                if window[1] < window[0]:
-                    raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: its time window and "
-                                        f"'after' window do not overlap")
-            nodes = graph.nodes_with_label(gs.pose) if gs.pose else None
-            if nodes is not None and len(nodes) == 0:
-                raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
-            goal = Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
-            goals.append(goal)
-            # after its last goal a character stands there to the end: that must be clear too
-            planner.hold = (lambda r: _hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None
-            res = run_to_completion(planner.run(cfg, goal, rng, owner, name=f"{c.name} goal {gi}"))
-            iters += res.iterations
-            if res.warning and planner.hold is not None and goal.window is None:
-                # the motion is clear but standing at the goal afterwards is in the way of a
-                # character planned earlier that passes there later: arrive after it has passed
-                late = _clear_after(planner, res, index)
-                if late is not None and late < n_total - 2 * fps:
-                    g2 = Goal(goal.position, goal.heading, goal.nodes, (late / fps, late / fps + 1.5), label=goal.label)
-                    res2 = run_to_completion(planner.run(cfg, g2, rng, owner, name=f"{c.name} goal {gi}"))
-                    iters += res2.iterations
-                    if not res2.warning:
-                        res = res2
-            if res.warning:
-                warnings.append(res.warning)
-                if log:
-                    log(f"warning: {res.warning}")
-            parts.append(Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame))
-            cfg = res.end
-            arrivals.append(cfg.frame)
-        track = concat_tracks(parts) if parts else idle_track(lib, cfg, n_total)
-        if len(track) > n_total:
-            warnings.append(f"{c.name}: motion runs {len(track) / fps:.1f} s, past the scenario's {sc.duration} s")
-            if log:
-                log(f"warning: {warnings[-1]}")
-            n_total_c = len(track)
-        else:
-            n_total_c = n_total
-        if len(track) < n_total_c:
-            track = concat_tracks([track, idle_track(lib, cfg, n_total_c - len(track) + 1)])
-        track = track.slice(0, n_total)
+        for attempt, node in enumerate(dict.fromkeys(starts)):
+            rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + ([attempt] if attempt else []))
+            out = _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results,
+                                  ci, node, rng, None)
+            iters += out[4]
+            if best is None or len(out[3]) < len(best[3]):
+                best = out
+            if not best[3]:
+                break
+            if log and attempt == 0 and len(dict.fromkeys(starts)) > 1:
+                log(f"{c.name}: planning again from the other {c.pose!r} start node")
+        track, arrivals, goals, warnings, _ = best
+        if log:
+            for w in warnings:
+                log(f"warning: {w}")
         frames = np.arange(len(track))
         rad = np.maximum(graph.frame_radius[track.frames_a], graph.frame_radius[track.frames_b])
-        index.insert(owner, frames, track.root[:, :2], rad)
+        index.insert(ci, frames, track.root[:, :2], rad)
         results[ci] = CharacterResult(c.name, track, arrivals, goals, warnings, time.perf_counter() - t0, iters,
                                       arrivals[-1] / fps if arrivals else 0.0)
         if progress:
             progress(1)
     return results
+
+
+def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng, log):
+    """All goals of character ``ci`` from start node ``node`` against the characters in
+    ``index``: (track over the whole scenario, arrival frames, goals, warnings, iterations)."""
+    c = sc.characters[ci]
+    owner = ci
+    planner = SegmentPlanner(lib, static=static,
+                             collide=lambda f, xz, r: index.overlaps(f, xz, r),
+                             roadmap=roadmap, env=env, params=params)
+    cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
+    parts = []
+    arrivals, goals, warnings = [], [], []
+    iters = 0
+    for gi, gs in enumerate(c.goals):
+        window = gs.time
+        if gs.after is not None:
+            other = sc.character(gs.after["character"])
+            oi = sc.characters.index(other)
+            t_other = (results[oi].arrivals[gs.after["goal"]] / fps) if oi != ci else arrivals[gs.after["goal"]] / fps
+            w = (t_other + gs.after["within"][0], t_other + gs.after["within"][1])
+            window = w if window is None else (max(w[0], window[0]), min(w[1], window[1]))
+            if window[1] < window[0]:
+                raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: its time window and "
+                                    f"'after' window do not overlap")
+        nodes = graph.nodes_with_label(gs.pose) if gs.pose else None
+        if nodes is not None and len(nodes) == 0:
+            raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
+        goal = Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
+        goals.append(goal)
+        # after its last goal a character stands there to the end: that must be clear too
+        planner.hold = (lambda r: _hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None
+        res = run_to_completion(planner.run(cfg, goal, rng, owner, name=f"{c.name} goal {gi}"))
+        iters += res.iterations
+        if res.warning and planner.hold is not None and goal.window is None:
+            # the motion is clear but standing at the goal afterwards is in the way of a
+            # character planned earlier that passes there later: arrive after it has passed
+            late = _clear_after(planner, res, index)
+            if late is not None and late < n_total - 2 * fps:
+                g2 = Goal(goal.position, goal.heading, goal.nodes, (late / fps, late / fps + 1.5), label=goal.label)
+                res2 = run_to_completion(planner.run(cfg, g2, rng, owner, name=f"{c.name} goal {gi}"))
+                iters += res2.iterations
+                if not res2.warning:
+                    res = res2
+        if res.warning:
+            warnings.append(res.warning)
+            if log:
+                log(f"warning: {res.warning}")
+        parts.append(Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame))
+        cfg = res.end
+        arrivals.append(cfg.frame)
+    track = concat_tracks(parts) if parts else idle_track(lib, cfg, n_total)
+    if len(track) > n_total:
+        warnings.append(f"{c.name}: motion runs {len(track) / fps:.1f} s, past the scenario's {sc.duration} s")
+        if log:
+            log(f"warning: {warnings[-1]}")
+        n_total_c = len(track)
+    else:
+        n_total_c = n_total
+    if len(track) < n_total_c:
+        track = concat_tracks([track, idle_track(lib, cfg, n_total_c - len(track) + 1)])
+    return track.slice(0, n_total), arrivals, goals, warnings, iters

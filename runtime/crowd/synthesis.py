@@ -96,6 +96,9 @@ class SynthesisParams:
     carrot: float = 1.5            # seeds aim this far (m) along the way-point path ahead of themselves
     carrot_final: float = 3.0      # ... until the path's end is this close (m): then at the end itself
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
+    start_still: bool = False      # characters start on a node of their pose where they can stand still
+                                   # and wait (scheduler; the World always does). Off: the pose's most
+                                   # connected node, which for "stand" is a walking hub (see docs/status.md)
     end_clearance: float = 0.65    # m from static obstacles a seed's edge must end (away from the goal),
                                    # so it can walk on (a walking cylinder is up to 0.63 m); 0: off
     fps: float = 30.0
