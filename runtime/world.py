@@ -52,7 +52,7 @@ from enum import Enum
 import numpy as np
 
 from .crowd.scenario import BOX_REACH
-from .crowd.scheduler import idle_track
+from .crowd.scheduler import idle_track, still_nodes
 from .crowd.spacetime import SpaceTimeIndex
 from .crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .crowd.tracks import Track, evaluate_poses
@@ -605,23 +605,8 @@ class World:
         return r + self.params.margin
 
     def _still_nodes(self) -> np.ndarray:
-        """Per node: whether idling on it stands still — it has a self-loop clip whose drift
-        (removed by :func:`idle_track` as a ramp) is within the per-frame adjustment tolerance
-        eps. A walking hub's self loops are walk cycles: idling there would walk on the spot."""
-        g = self.graph
-        ep, eh, _ = self.params.eps
-        still = np.zeros(g.num_nodes, dtype=bool)
-        for n in range(g.num_nodes):
-            L = self._loop_len(n)
-            if L == 0:
-                continue
-            loops = np.flatnonzero((g.edge_src == n) & (g.edge_dst == n))
-            drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
-            e = int(loops[np.argmin(drift)])
-            d = g.edge_disp[e]
-            dur = L / self.fps
-            still[n] = np.hypot(d[0], d[1]) / dur <= ep and np.degrees(abs(d[2])) / dur <= eh
-        return still
+        """Per node: whether idling on it stands still (:func:`runtime.crowd.scheduler.still_nodes`)."""
+        return still_nodes(self.graph, self.params.eps, self.fps)
 
     def pose_nodes(self, label: str) -> np.ndarray:
         """Nodes carrying the pose ``label`` where a character can wait standing still (all
