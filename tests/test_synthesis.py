@@ -264,7 +264,7 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
     calls = []
 
     def fake(*args):
-        node = args[12]
+        node = args[12]          # (sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng)
         calls.append(node)
         out = real(*args)
         return out if len(calls) > 1 else out[:3] + (["forced warning"], out[4])

@@ -189,20 +189,20 @@ def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order
         c = sc.characters[ci]
         t0 = time.perf_counter()
         where = f"{sc.path}: character {c.name!r} start"
-        starts = [_start_node(graph, c.pose, where, still if params.start_still else None),
-                  _start_node(graph, c.pose, where, None if params.start_still else still)]
+        starts = list(dict.fromkeys([_start_node(graph, c.pose, where, still if params.start_still else None),
+                                     _start_node(graph, c.pose, where, None if params.start_still else still)]))
         best = None
         iters = 0
-        for attempt, node in enumerate(dict.fromkeys(starts)):
+        for attempt, node in enumerate(starts):
             rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + ([attempt] if attempt else []))
             out = _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results,
-                                  ci, node, rng, None)
+                                  ci, node, rng)
             iters += out[4]
             if best is None or len(out[3]) < len(best[3]):
                 best = out
             if not best[3]:
                 break
-            if log and attempt == 0 and len(dict.fromkeys(starts)) > 1:
+            if log and attempt == 0 and len(starts) > 1:
                 log(f"{c.name}: planning again from the other {c.pose!r} start node")
         track, arrivals, goals, warnings, _ = best
         if log:
@@ -218,7 +218,7 @@ def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order
     return results
 
 
-def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng, log):
+def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng):
     """All goals of character ``ci`` from start node ``node`` against the characters in
     ``index``: (track over the whole scenario, arrival frames, goals, warnings, iterations)."""
     c = sc.characters[ci]
@@ -262,16 +262,12 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
                     res = res2
         if res.warning:
             warnings.append(res.warning)
-            if log:
-                log(f"warning: {res.warning}")
         parts.append(Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame))
         cfg = res.end
         arrivals.append(cfg.frame)
     track = concat_tracks(parts) if parts else idle_track(lib, cfg, n_total)
     if len(track) > n_total:
         warnings.append(f"{c.name}: motion runs {len(track) / fps:.1f} s, past the scenario's {sc.duration} s")
-        if log:
-            log(f"warning: {warnings[-1]}")
         n_total_c = len(track)
     else:
         n_total_c = n_total
