@@ -22,20 +22,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 def random_pairs(g, P, L, rng):
-    def walk(n, length):
-        out = []
-        for _ in range(length):
-            e = int(rng.choice(np.flatnonzero(g.edge_src == n)))
-            out.append(e)
-            n = int(g.edge_dst[e])
-        return out
     F = -np.ones((P, L), np.int64)
     B = -np.ones((P, L), np.int64)
     nf, nb = rng.integers(8, L, P), rng.integers(8, L, P)
     start = int(g.edge_src[0])
     for p in range(P):
-        F[p, :nf[p]] = walk(start, nf[p])
-        B[p, L - nb[p]:] = walk(int(rng.integers(g.num_nodes)), nb[p])
+        F[p, :nf[p]] = g.random_walk(start, nf[p], rng)
+        B[p, L - nb[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nb[p], rng)
     return F, nf, B, nb, start
 
 

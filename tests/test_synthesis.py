@@ -183,15 +183,6 @@ def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
     g = default_graph
     planner = SegmentPlanner(MotionLibrary(g))
     rng = np.random.default_rng(3)
-
-    def walk(n, length):
-        out = []
-        for _ in range(length):
-            e = int(rng.choice(np.flatnonzero(g.edge_src == n)))
-            out.append(e)
-            n = int(g.edge_dst[e])
-        return out
-
     P, L = 120, 24
     F = -np.ones((P, L), np.int64)
     B = -np.ones((P, L), np.int64)
@@ -199,8 +190,8 @@ def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
     start_node = int(g.edge_src[0])
     hub = int(rng.integers(g.num_nodes))
     for p in range(P):
-        F[p, :nf[p]] = walk(start_node, nf[p])
-        B[p, L - nb[p]:] = walk(hub if p % 2 else int(rng.integers(g.num_nodes)), nb[p])
+        F[p, :nf[p]] = g.random_walk(start_node, nf[p], rng)
+        B[p, L - nb[p]:] = g.random_walk(hub if p % 2 else int(rng.integers(g.num_nodes)), nb[p], rng)
     planner._start_node, planner._goal_node = start_node, int(g.edge_dst[B[0, -1]])
     start, goal = np.array([0.3, -0.2, 0.4]), np.array([5.0, 3.0, -1.0])
     for window in (None, (3.0, 6.0)):

@@ -96,6 +96,17 @@ class MotionGraph:
     def out_edges(self, node: int) -> np.ndarray:
         return self._out_order[self._out_ptr[node]:self._out_ptr[node + 1]]
 
+    def random_walk(self, node: int, length: int, rng: np.random.Generator) -> list[int]:
+        """``length`` edges from ``node``, each drawn uniformly among the out-edges of the node
+        reached (test and benchmark data for the synthesis search)."""
+        edges = []
+        for _ in range(int(length)):
+            out = self.out_edges(node)
+            e = int(out[rng.integers(len(out))])
+            edges.append(e)
+            node = int(self.edge_dst[e])
+        return edges
+
     def in_edges(self, node: int) -> np.ndarray:
         return np.flatnonzero(self.edge_dst == node)
 
