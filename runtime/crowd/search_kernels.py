@@ -3,7 +3,8 @@
 :meth:`runtime.crowd.synthesis.SegmentPlanner.pair_costs` costs every pair (prefix i of M_f,
 suffix j of M_b) of n_m perturbed motion pairs per iteration. In numpy that is about forty
 whole-array passes over (pairs x positions) and (pairs x positions x positions) arrays plus a
-sparse gather -- about 4 ms per iteration, most of a character's planning time. This kernel
+sparse gather -- 1.4-8 ms per iteration of 200 pairs (``bench/splice_costs.py``), most of a
+character's planning time. This kernel
 does the same arithmetic in one loop per pair: the forward configurations by accumulating the
 clips' planar displacements from the start, the backward ones from the goal, then every (i, j)
 meeting at the same node, keeping the row-major first minimum (the numpy path's tie rule).

@@ -441,11 +441,16 @@ class SegmentPlanner:
         elapsed = 0.0
         waits = 0
         sidesteps = 0
-        def clear_many(es):
+        # planned characters count where the seed's frames mean something: forward, or backward
+        # from a time window
+        timed = (not reverse) or time_budget is not None
+
+        def clear_here(es, moving):
+            """Which edges from the current configuration and frame are collision-free."""
             es = np.asarray(es, dtype=np.int64)
             return self._clear(es, np.repeat(cfg[None], len(es), 0),
                                np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
-                               moving=not reverse)
+                               moving=moving)
         goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
         room = self.p.end_clearance
 
@@ -507,24 +512,18 @@ class SegmentPlanner:
             pick = None
             if len(order):
                 cand = out[order[:12]]
-                ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
-                                 np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
-                                 moving=(not reverse) or time_budget is not None) & roomy(cand)
+                ok = clear_here(cand, timed) & roomy(cand)
                 if ok.any():
                     pick = cand[np.argmax(ok)]
-                elif waits < self.p.max_waits and self.collide is not None and (
-                        (not reverse) or time_budget is not None) and self._clear(
-                        cand, np.repeat(cfg[None], len(cand), 0),
-                        np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
-                        moving=False).any():
+                elif waits < self.p.max_waits and self.collide is not None and timed and \
+                        clear_here(cand, False).any():
                     # every improving edge runs into someone already planned (at least one is
                     # clear of the static obstacles: waiting cannot move a wall): wait for them
                     # to pass on the node's most stationary self-loop clip, if that is clear
                     loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
                     if len(loops):
                         w = loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))][None]
-                        fr = np.array([frame]) if not reverse else frame - (lib.nframes[w] - 1)
-                        if self._clear(w, cfg[None], fr, moving=(not reverse) or time_budget is not None)[0]:
+                        if clear_here(w, timed)[0]:
                             waits += 1
                             advance(int(w[0]))
                             elapsed += float(lib.dur[w[0]])
@@ -538,9 +537,7 @@ class SegmentPlanner:
                     moves = np.hypot(ends[:, 0] - cfg[0], ends[:, 1] - cfg[1]) > 0.3
                     cand = out[np.argsort(np.where(moves, e, np.inf), kind="stable")[:24]]
                     cand = cand[np.hypot(*(compose(cfg[None], disp[cand])[:, :2] - cfg[None, :2]).T) > 0.3]
-                    ok = self._clear(cand, np.repeat(cfg[None], len(cand), 0),
-                                     np.full(len(cand), frame) if not reverse else frame - (lib.nframes[cand] - 1),
-                                     moving=(not reverse) or time_budget is not None) & roomy(cand)
+                    ok = clear_here(cand, timed) & roomy(cand)
                     if ok.any():
                         sidesteps += 1
                         advance(cand[np.argmax(ok)])
@@ -570,7 +567,7 @@ class SegmentPlanner:
                 allowed = np.ones(g.num_edges, bool)
                 dist = self._bfs_dist(tgt, allowed, reverse)
             yield from self._fewest_path(node, dist, advance, lambda: node, lambda: cfg, waypoints[-1], src, dst,
-                                         disp, allowed, clear=clear_many)
+                                         disp, allowed, clear=lambda es: clear_here(es, not reverse))
         self.waited = waits         # idle clips inserted for planned characters (diagnostics)
         return edges, node
 
