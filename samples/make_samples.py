@@ -7,8 +7,8 @@ theater rows) and ``README.md``:
 =============  ===========================================================================
 meet20         Experiment 1: 20 characters arrive in the same 0.5 s window in pairs,
                triangles and a square, partners facing each other
-spell70        Experiment 2: 70 characters arrive in one window at points spelling "SCA",
-               facing the camera (+Z)
+spell70        Experiment 2: 70 characters walk to points spelling "SCA", front row first,
+               and face the camera (+Z)
 rooms_box      Experiment 3: one character crosses six rooms with walls, doors and
                furniture, among 8 other characters (planned first), and picks up a box
 theater40      Experiment 4: 40 characters walk from a lobby through two doors and take
@@ -329,9 +329,13 @@ def letter_points(word: str, n: int, spacing: float, gap: float = 2.0) -> np.nda
     return pts - [0.0, pts[:, 1].max()]
 
 
+SPELL_STAGGER = 3.0         # s between the front row's arrival window and the back row's
+
+
 def spell_scenario(word: str = "SCA", n: int = 70, spacing: float = 1.6, seed: int = 0, gap: float = 2.0) -> dict:
     """``n`` characters start in a grid 5 m behind the word (spacing 2.0 x 2.2 m), walk to the
-    letter points and arrive in [17, 18] s facing the camera (+Z). The letter scale is the
+    letter points and arrive facing the camera (+Z), in a 1 s window that opens at 17 s for the
+    front row of the word and ``SPELL_STAGGER`` s later for the back row (linear in depth). The letter scale is the
     smallest that gives exactly ``n`` points at least ``spacing`` apart along the strokes.
     Starts are assigned to points by minimum total squared distance (no crossing paths in
     depth: the back of the grid takes the far side of the letters)."""
@@ -344,15 +348,20 @@ def spell_scenario(word: str = "SCA", n: int = 70, spacing: float = 1.6, seed: i
     cost = ((starts[:, None, :] - pts[None, :, :]) ** 2).sum(-1)
     _, assign = linear_sum_assignment(cost)
     order = np.argsort(-pts[assign, 1], kind="stable")    # nearest the camera planned first
+    zt = pts[:, 1]
     chars = []
     for k, i in enumerate(order):
         g = pts[assign[i]]
+        # the word fills from the front: a point's window opens SPELL_STAGGER s later from the
+        # front row to the back one, so a character filing into a stroke behind another
+        # arrives after it has stopped rather than on its heels
+        t0 = round(17.0 + SPELL_STAGGER * float((zt.max() - g[1]) / max(np.ptp(zt), 1e-9)), 2)
         chars.append({"name": f"c{k + 1:02d}",
                       "start": {"position": _pos(starts[i]), "heading": 0.0, "pose": "stand"},
-                      "goal": [{"position": _pos(g), "heading": 0.0, "pose": "stand", "time": [17.0, 18.0]}]})
-    return {"name": "spell70", "description": f"Experiment 2 (paper 000, Figure 6): {n} characters arrive "
-            f"together at points spelling {word}, facing the camera (+Z)",
-            "library": "default", "duration": 20.0, "seed": seed, "character": chars}
+                      "goal": [{"position": _pos(g), "heading": 0.0, "pose": "stand", "time": [t0, t0 + 1.0]}]})
+    return {"name": "spell70", "description": f"Experiment 2 (paper 000, Figure 6): {n} characters walk to "
+            f"points spelling {word}, front row first, and face the camera (+Z)",
+            "library": "default", "duration": 20.0 + SPELL_STAGGER, "seed": seed, "character": chars}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -453,6 +462,7 @@ ROW_PITCH = 2.6
 ROW_Z = 6.0 - ROW_PITCH * np.arange(5)         # back row first
 RAIL_HALF_WIDTH = 6.0                          # row partitions span the seat block, x -6..6
 THEATER_DOORS = (-7.5, 7.5)
+THEATER_GAP = 3.0                              # s between consecutive seats of a half theater
 
 
 def theater_world() -> WorldBuilder:
@@ -487,7 +497,8 @@ def theater_scenario(seed: int = 0) -> dict:
     """40 characters wait in the lobby in two 4 x 5 blocks (2 m spacing) beside the two doors
     and take seats row by row, back row first and inner seats first in each half row (so no
     one passes a seated character closely). Those nearest their door go first; seat k of a
-    half-theater is reached in [18 + 2 k, 20 + 2 k] s."""
+    half-theater is reached in [18 + g k, 18 + g (k + 1)] s with g = ``THEATER_GAP`` (3 s: the
+    one before has sat down by then, so the two are not walking the row's lane together)."""
     chars = []
     order = []
     for side, door_x in zip((-1, 1), THEATER_DOORS):
@@ -506,12 +517,13 @@ def theater_scenario(seed: int = 0) -> dict:
         for side in range(2):
             (p, (b, j)) = order[side][i]
             n += 1
-            t = 18.0 + 2.0 * i
+            t = 18.0 + THEATER_GAP * i
             chars.append({"name": f"c{n:02d}",
                           "start": {"position": _pos(p), "heading": 180.0, "pose": "stand"},
-                          "goal": [{"seat": f"/World/Seats/r{b + 1}_s{j + 1}", "time": [t, t + 2.0]}]})
+                          "goal": [{"seat": f"/World/Seats/r{b + 1}_s{j + 1}", "time": [t, t + THEATER_GAP]}]})
     return {"name": "theater40", "description": "Experiment 4 (paper 000, Figure 8): 40 characters walk from "
-            "a lobby to theater seats", "world": "world.usda", "library": "default", "duration": 62.0,
+            "a lobby to theater seats", "world": "world.usda", "library": "default",
+            "duration": 18.0 + THEATER_GAP * 20 + 4.0,
             "seed": seed, "character": chars}
 
 
@@ -520,6 +532,8 @@ def theater_scenario(seed: int = 0) -> dict:
 FETCH_SEAT_X = 1.5 + 1.6 * np.arange(5)
 FETCH_ROWS = ((1.2, 0.0), (6.8, 180.0), (9.2, 0.0), (14.8, 180.0))   # (z, heading): two corridors
 FETCH_DOORS = (4.0, 12.0)
+FETCH_GAP = 4.0                       # s between consecutive characters of a corridor
+FETCH_BOX_INSET = 2.1                 # m from the wall behind a box to the box
 
 
 def fetch_world() -> WorldBuilder:
@@ -542,24 +556,31 @@ def fetch_world() -> WorldBuilder:
 
 
 def fetch_boxes():
-    """(x, z, heading) of the 20 boxes, 10 per corridor: five along the side wall (facing into
-    the room) and five along the far wall (1.4 m apart, facing -X), lower half then upper."""
+    """(x, z, heading) of the 20 boxes, 10 per half of room B: five in a row 2.1 m in from the
+    side wall and five in a column 2.1 m in from the far wall (1.4 m apart), all facing into the
+    room, lower half then upper. A character picks a box up facing the wall behind it, and the
+    library's carrying clips only turn while walking on (about 1 m per 60 degrees): the 2.5 m
+    between a pick-up spot and the wall are where it turns round with the box."""
     out = []
-    for zw, hw, zs in ((0.6, 0.0, 1.75 + 1.4 * np.arange(5)), (15.4, 180.0, 14.25 - 1.4 * np.arange(5))):
+    for zw, hw, zs in ((FETCH_BOX_INSET, 0.0, 1.75 + 1.4 * np.arange(5)),
+                       (16.0 - FETCH_BOX_INSET, 180.0, 14.25 - 1.4 * np.arange(5))):
         out += [(x, zw, hw) for x in (12.5, 14.5, 16.5, 18.5, 20.5)]
-        out += [(23.3, round(float(z), 3), -90.0) for z in zs]
+        out += [(24.0 - FETCH_BOX_INSET, round(float(z), 3), -90.0) for z in zs]
     return out
 
 
 def fetch_scenario(seed: int = 0) -> dict:
     """Each seated character stands up, picks up its box in room B, carries it to its spot in
-    the middle of room B (a 5 x 2 block per corridor, 2 m spacing), puts it down (pose
-    "stand") and returns to its own seat. Characters nearest the door leave first, 2 s apart,
-    and fetch the farthest boxes; windows are laid out from the distances (walking 1 m/s,
-    carrying 0.7 m/s, about 3.5 s per pose change) and are 2.5 s wide."""
+    room B (a 5 x 2 block per corridor, off the routes to the boxes), puts it down (pose
+    "stand") and returns to its own seat. Characters nearest the door leave first,
+    ``FETCH_GAP`` (4 s) apart, and fetch the farthest boxes. The pick-up and the put-down have
+    2.5 s windows laid out from the distances (walking 1 m/s, carrying 0.7 m/s, about 3.5 s
+    per pose change); the return to the seat has none (the paper's Experiment 5 times no
+    goal): a character sits down when it gets there."""
     from runtime.crowd.scenario import BOX_REACH
     boxes = fetch_boxes()
     chars = []
+    t_last = []
     for cor in range(2):
         rows = FETCH_ROWS[2 * cor:2 * cor + 2]
         seats = [(r + 2 * cor, j) for j in range(4, -1, -1) for r in range(2)]     # nearest the door first
@@ -568,8 +589,11 @@ def fetch_scenario(seed: int = 0) -> dict:
                                                                     math.cos(math.radians(boxes[b][2]))]) for b in bidx}
         door = np.array([10.0, FETCH_DOORS[cor]])
         bidx.sort(key=lambda b: -float(np.hypot(*(bstand[b] - door))))          # farthest first
-        zs = (3.6, 6.0) if cor == 0 else (12.4, 10.0)
-        places = [np.array([x, z]) for z in zs for x in (20.5, 18.5, 16.5, 14.5, 12.5)]
+        # put-down spots off the door-to-box routes (which run at z 2.5-4.5 in the lower half),
+        # the ones nearest the door first: a character walking back to the door then never
+        # passes a spot still to be used, and one carrying a box never passes one in use
+        zs = (7.2, 5.9) if cor == 0 else (8.8, 10.1)
+        places = [np.array([x, z]) for x in (13.0, 14.5, 16.0, 17.5, 19.0) for z in zs]
         t_prev = [-10.0, -10.0, -10.0]
         for k, ((r, j), b, place) in enumerate(zip(seats, bidx, places)):
             z, h = FETCH_ROWS[r]
@@ -578,20 +602,21 @@ def fetch_scenario(seed: int = 0) -> dict:
             d1 = float(np.hypot(*(door - up)) + np.hypot(*(bstand[b] - door)))
             d2 = float(np.hypot(*(place - bstand[b])))
             d3 = float(np.hypot(*(door - place)) + np.hypot(*(up - door)))
-            t1 = max(3.0 + d1 / WALK_SPEED + 4.0, t_prev[0] + 2.0)
-            t2 = max(t1 + 2.5 + d2 / 0.7 + 4.0, t_prev[1] + 2.0)
-            t3 = max(t2 + 2.5 + d3 / WALK_SPEED + 4.0, t_prev[2] + 2.0)
+            t1 = max(3.0 + d1 / WALK_SPEED + 4.0, t_prev[0] + FETCH_GAP)
+            t2 = max(t1 + 2.5 + d2 / 0.7 + 4.0, t_prev[1] + FETCH_GAP)
+            t3 = max(t2 + 2.5 + d3 / WALK_SPEED + 4.0, t_prev[2] + FETCH_GAP)
             t_prev = [t1, t2, t3]
+            t_last.append(t3 + 2.5)
             sid = f"s{r * 5 + j + 1:02d}"
             chars.append({"name": f"c{len(chars) + 1:02d}", "start": {"seat": f"/World/Seats/{sid}"},
                           "goal": [{"box": f"/World/Boxes/b{b + 1:02d}", "time": [round(t1, 1), round(t1 + 2.5, 1)]},
                                    {"position": _pos(place), "pose": "stand", "time": [round(t2, 1), round(t2 + 2.5, 1)]},
-                                   {"seat": f"/World/Seats/{sid}", "time": [round(t3, 1), round(t3 + 2.5, 1)]}]})
+                                   {"seat": f"/World/Seats/{sid}"}]})
     # interleave the corridors so that both start together in planning order
     chars = [c for pair in zip(chars[:10], chars[10:]) for c in pair]
     for i, c in enumerate(chars):
         c["name"] = f"c{i + 1:02d}"
-    dur = max(c["goal"][-1]["time"][1] for c in chars) + 3.0
+    dur = max(t_last) + 3.0
     return {"name": "fetch_boxes20", "description": "Experiment 5 (paper 000, Figure 9): 20 seated characters "
             "fetch boxes, put them down at designated spots and return to their seats", "world": "world.usda",
             "library": "default", "duration": float(math.ceil(dur)), "seed": seed, "character": chars}
@@ -692,8 +717,11 @@ it roughly from behind (final turn on the spot up to about 60 degrees), so paths
 and each other and the characters must interact to arrive together.
 """),
     "spell70": _readme("spell70", "paper 000, Experiment 2 (Figure 6)", """
-70 characters arrive in one window ([17, 18] s) at points spelling **SCA** on open ground,
-all facing the camera (+Z, heading 0). The block letters are polylines whose vertices are
+70 characters walk to points spelling **SCA** on open ground and stop there facing the camera
+(+Z, heading 0). The word fills from the front: each point has a 1 s arrival window that opens
+at 17 s for the front row (largest z) and 3 s later for the back row, linearly in depth, so a
+character filing into a stroke behind another arrives after that one has stopped (with one
+window for all, followers in a stroke walked on each other's heels). The block letters are polylines whose vertices are
 points and whose segments are split evenly, at least 1.6 m apart (the smallest letter scale
 that holds exactly 70 points, letters 2 m apart; the word is about 33 m wide and 14 m tall, read left to right
 with the tops of the letters towards -Z). 1.6 m keeps two neighbours' bounding cylinders apart
@@ -734,7 +762,8 @@ the row's empty seats.
 Each half of the lobby (4 x 5 characters, 2 m apart) fills one half of the seats through its
 own door: back row first, and in each half row the innermost seat first, so nobody has to pass
 close in front of a seated character (sitting characters are 0.62 m cylinders). Those nearest
-the door go first; the k-th seat of each half is reached in [18 + 2 k, 20 + 2 k] s.
+the door go first; the k-th seat of each half is reached in [18 + 3 k, 21 + 3 k] s (3 s apart: the one
+before has sat down by then, so two characters do not walk a row's lane together).
 """, world=True),
     "fetch_boxes20": _readme("fetch_boxes20", "paper 000, Experiment 5 (Figure 9)", """
 20 characters start **seated** (`start = { seat = ... }`); each must pick up a designated box in
@@ -742,12 +771,16 @@ the second room (`box = ...`), put it down at a designated spot (a `position` go
 `stand` reached from the carrying state: the put-down) and **return to its own seat**.
 
 `world.usda`: room A (x 0..10, z 0..16) with 20 seats in four rows of five facing two 4 m wide
-corridors (rows back to back in the middle), room B (x 10..24) with 20 boxes along its side and
-far walls (facing into the room, 1.4-2 m apart), two 3 m doors (z = 4 and z = 12). Each
+corridors (rows back to back in the middle), room B (x 10..24) with 20 boxes in a row and a
+column 2.1 m in from its side and far walls (facing into the room, 1.4-2 m apart: a character
+picks a box up facing the wall, and the library's carrying clips turn only while walking
+on, so it needs the room in front to turn round), two 3 m doors (z = 4 and z = 12). Each
 corridor's ten characters use their own door, the lower or upper half of room B and a 5 x 2
-block of put-down spots (2 m apart). Characters nearest the door leave first, 2 s apart, and
-fetch the farthest boxes; the windows (2.5 s wide) are laid out from the distances at 1 m/s
-walking, 0.7 m/s carrying and about 3.5 s per pose change.
+block of put-down spots (1.5 m by 1.3 m apart) off the routes from the door to the boxes, used
+nearest the door first. Characters nearest the door leave first, 4 s apart, and
+fetch the farthest boxes. The pick-up and put-down windows (2.5 s wide) are laid out from the
+distances at 1 m/s walking, 0.7 m/s carrying and about 3.5 s per pose change; the return to
+the seat has no window (a character sits down when it gets there).
 """, world=True),
     "grid300": _readme("grid300", "paper 000, Experiment 6a (Figure 10)", """
 300 characters on a uniform 20 x 15 grid (3.0 m spacing, facing +X) walk to a copy of the grid

@@ -114,6 +114,24 @@ def test_straight_line_when_visible(rooms):
     assert len(w) > 2 and np.all(env.segment_clear(w[:-1], w[1:], R))
 
 
+def test_direct_segment_keeps_the_shortcut_clearance(rooms):
+    """A straight start-goal segment is used only when it keeps radius + SHORTCUT_EXTRA from
+    every obstacle (both ends being that far away): one grazing the pillar by less is routed."""
+    from runtime.crowd.roadmap import SHORTCUT_EXTRA
+    env, rm = rooms
+    wide = R + SHORTCUT_EXTRA
+    # passes the pillar (x -4, radius 0.5) with between R and R + SHORTCUT_EXTRA to spare
+    gap = 0.5 + 0.5 * (R + wide)
+    start, goal = np.array([-7.0, gap]), np.array([-1.5, gap])
+    assert env.segment_clear(start, goal, R) and not env.segment_clear(start, goal, wide)
+    assert env.distance(np.stack([start, goal])).min() > wide
+    w = rm.waypoints(env, start, goal)
+    assert len(w) > 2
+    # one with room to spare stays straight
+    w = rm.waypoints(env, [-7.0, 2.5], [-1.5, 2.5])
+    assert len(w) == 2
+
+
 def test_end_point_closer_than_radius_to_an_obstacle(rooms):
     """A goal 0.2 m from the table (a seat): joined with the clearance it has."""
     env, rm = rooms

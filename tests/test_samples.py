@@ -98,7 +98,13 @@ def test_spell70_letters(labels):
     final = _final(sc)
     assert make_samples.min_spacing(final) >= 1.6 - 1e-9
     assert all(c.goals[0].heading == 0.0 for c in sc.characters)          # facing the camera (+Z)
-    assert len({c.goals[0].time for c in sc.characters}) == 1              # one arrival window
+    # 1 s windows opening at 17 s for the front row (+Z) to 17 + stagger for the back one,
+    # later the further back
+    z = final[:, 1]
+    opens = np.array([c.goals[0].time[0] for c in sc.characters])
+    assert all(c.goals[0].time[1] - c.goals[0].time[0] == pytest.approx(1.0) for c in sc.characters)
+    assert opens[np.argmax(z)] == 17.0 and opens[np.argmin(z)] == 17.0 + make_samples.SPELL_STAGGER
+    assert np.all(np.diff(opens[np.argsort(-z, kind="stable")]) >= -1e-9)
     # the letters are read left to right: three clusters along x, 2 m apart (the widest x gaps;
     # inside a letter consecutive points are at most 1.92 m apart along x)
     xs = np.sort(final[:, 0])

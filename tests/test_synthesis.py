@@ -267,3 +267,137 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
     res = plan_scenario(sc, default_graph)
     assert len(calls) == 2 and calls[0] != calls[1]
     assert res.characters[0].warnings == []
+
+
+def test_change_time_is_the_quickest_state_change(default_graph):
+    """MotionLibrary.change_time against a plain Bellman-Ford over the clips: the quickest
+    motion from the walking nodes into a carrying pose (picking a box up), and back."""
+    from runtime.motion.graph import STATES
+    g = default_graph
+    lib = MotionLibrary(g)
+    walking = np.flatnonzero(g.node_state == STATES.index("walking"))
+    carry = g.nodes_with_label("carry")
+
+    def quickest(a, b):
+        best = np.full(g.num_nodes, np.inf)
+        best[a] = 0.0
+        for _ in range(g.num_nodes):
+            for e in range(g.num_edges):
+                t = best[g.edge_src[e]] + g.edge_duration[e]
+                if t < best[g.edge_dst[e]]:
+                    best[g.edge_dst[e]] = t
+        return best[b].min()
+
+    for a, b in ((walking, carry), (carry, walking)):
+        want = quickest(a, b)
+        assert 0.5 < want < 10.0
+        assert lib.change_time(a, b) == pytest.approx(want, abs=1e-6)
+    assert lib.change_time(walking, walking[:1]) == 0.0
+
+
+def test_a_seed_holding_a_box_turns_round(default_graph):
+    """The library's carrying clips turn only while walking on (no turn on the spot): a seed
+    carrying a box with its target behind it walks round in a loop to it instead of stopping
+    where it stands (paper 000, section 3.2's greedy planner only takes improving edges)."""
+    from runtime.motion.graph import STATES
+    g = default_graph
+    carrying = STATES.index("carrying")
+    loops = np.flatnonzero((g.edge_src == g.edge_dst) & (g.edge_state == carrying)
+                           & (np.hypot(g.edge_disp[:, 0], g.edge_disp[:, 1]) < 0.1))
+    node = int(g.edge_src[loops[0]])
+    turns_on_spot = (g.edge_src == node) & (g.edge_state == carrying) & (np.abs(g.edge_disp[:, 2]) > np.radians(30)) \
+        & (np.hypot(g.edge_disp[:, 0], g.edge_disp[:, 1]) < 0.3)
+    assert not turns_on_spot.any()            # the premise: no clip turns it round where it stands
+
+    def end(max_turns):
+        lib = MotionLibrary(g, SynthesisParams(max_turns=max_turns))
+        planner = SegmentPlanner(lib)
+        target = np.array([[0.0, 0.0], [0.5, -4.0]])                # behind the character (facing +Z)
+        edges, _ = planner.greedy(node, np.zeros(3), 0, target, None, carrying, None, False,
+                                  np.random.default_rng(0), time_budget=None)
+        c = np.zeros(3)
+        from runtime.crowd.synthesis import compose
+        for e in edges:
+            c = compose(c, lib.disp[e])
+        return np.hypot(c[0] - 0.5, c[1] + 4.0)
+
+    assert end(0) > 3.5                       # without turning it does not get going
+    assert end(6) < 1.0
+
+
+def test_splice_to_a_given_number_of_frames(default_graph):
+    """splice(frames=m) resamples the same pair to m + 1 output frames ending exactly in the
+    goal, and refuses a duration outside the window."""
+    lib = MotionLibrary(default_graph)
+    planner = SegmentPlanner(lib)
+    node = int(default_graph.nodes_with_label("stand")[0])
+    goal = Goal(np.array([4.0, 3.0]), 0.5, None, (4.0, 8.0))
+    res = run_to_completion(planner.run(Config(node, 0.0, 0.0, 0.0, 0), goal, np.random.default_rng(1)))
+    assert res.ok
+    F, B = np.array(res.edges), np.array([-1])
+    goal_cfg = res.root[-1]
+    planner._start_node, planner._goal_node = node, res.end.node
+    m0 = len(res.root) - 1
+    raw = int(sum(default_graph.edge_frames[e] - 1 for e in F))      # source frames of the pair
+    for m in (m0 - 6, m0 + 6):
+        r = planner.splice(Config(node, 0.0, 0.0, 0.0, 0), goal_cfg, res.end.node, F, len(F), B, 1, (4.0, 8.0),
+                           0, frames=m)
+        assert len(r.root) == m + 1
+        np.testing.assert_allclose(r.root[-1], goal_cfg, atol=1e-9)
+        assert r.rates[2] == pytest.approx(abs(raw / m - 1.0), abs=1e-9)
+    assert planner.splice(Config(node, 0.0, 0.0, 0.0, 0), goal_cfg, res.end.node, F, len(F), B, 1, (4.0, 8.0),
+                          0, frames=int(9.0 * 30)) is None
+
+
+def _repair_setup(monkeypatch, plans):
+    """Three planned characters (a, b at rest apart; c failed, standing on a) and a fake
+    planner returning ``plans[(character, attempt)]``."""
+    import types
+    import runtime.crowd.scheduler as sched
+    from runtime.crowd.spacetime import SpaceTimeIndex
+    sc = parse_scenario({"name": "three", "duration": 1.0, "seed": 0, "character": [
+        {"name": n, "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"}, "goal": [{"position": [1.0, 0.0]}]}
+        for n in ("a", "b", "c")]})
+    graph = types.SimpleNamespace(frame_radius=np.full(4, 0.4))
+
+    def result(name, x, warnings=()):
+        n = 31
+        tr = Track(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.float32),
+                   np.tile([x, 0.0, 0.0], (n, 1)), 0)
+        return sched.CharacterResult(name, tr, [30], [], list(warnings), 1.0, 10)
+
+    ctx = sched._Context(sc, graph, None, None, SynthesisParams(), None, 30.0, 31, None,
+                         SpaceTimeIndex(cell=1.2), None, None)
+    results = {0: result("a", 0.0), 1: result("b", 5.0), 2: result("c", 0.2, ["c collides"])}
+    for ci, r in results.items():
+        ctx.insert(ci, r.track)
+    made = {key: result(*spec) for key, spec in plans.items()}
+    monkeypatch.setattr(sched, "_plan_one", lambda ctx, results, ci, k, attempt=0: made[(ci, attempt)])
+    return sched, ctx, results, made
+
+
+def test_repair_displaces_a_blocker_and_keeps_it_only_if_all_come_out_clean(monkeypatch):
+    """A repair pass: c fails again where it is (on a); planned without a it is clean, and a
+    planned again around it is clean: both new plans are kept, and their time is counted."""
+    sched, ctx, results, made = _repair_setup(monkeypatch, {
+        (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5)})
+    old_a = results[0]
+    sched._repair(ctx, results, [2], 1)
+    assert results[2] is made[(2, 2)] and results[0] is made[(0, 3)] and results[1].track.root[0, 0] == 5.0
+    assert results[2].seconds == 3.0 and results[0].seconds == old_a.seconds + 1.0
+    # the index holds exactly the kept plans: a moved to x = 2.5, c at 0
+    probe = lambda x: ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.1]))
+    assert set(probe(0.0)) == {2} and set(probe(2.5)) == {0} and set(probe(5.0)) == {1}
+
+
+def test_repair_puts_everything_back_when_a_blocker_fails(monkeypatch):
+    """Same, but a cannot be planned clean around c: a's and c's old plans stay, in the index too."""
+    sched, ctx, results, made = _repair_setup(monkeypatch, {
+        (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5, ["a fails"])})
+    old = dict(results)
+    sched._repair(ctx, results, [2], 1)
+    assert results[0] is old[0] and results[1] is old[1]
+    assert results[2].warnings and results[2].track.root[0, 0] in (0.2, 0.1)
+    assert results[2].seconds == 4.0          # its old plan and three tries (one of them a's)
+    probe = lambda x: ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.05]))
+    assert 0 in probe(0.0) and not probe(2.5) and set(probe(5.0)) == {1}

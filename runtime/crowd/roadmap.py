@@ -196,7 +196,10 @@ class Roadmap:
                                f"{self.env_fingerprint[:12]}... != {env.fingerprint()[:12]}...); rebuild it")
         rs = self._end_radius(env, s, "start")
         rg = self._end_radius(env, g, "goal")
-        if env.segment_clear(s, g, min(rs, rg, self.radius + SHORTCUT_EXTRA)):
+        # the direct segment keeps radius + SHORTCUT_EXTRA, like every shortcut, unless an end
+        # point is itself closer to an obstacle than that
+        d_ends = env.distance(np.stack([s, g]))
+        if env.segment_clear(s, g, min(self.radius + SHORTCUT_EXTRA, 0.999 * float(d_ends.min()))):
             return np.stack([s, g])
         ns, ds = self._visible(env, s, rs)
         ng, dg = self._visible(env, g, rg)

@@ -139,6 +139,18 @@ def _start_node(graph, pose: str, where: str, still: np.ndarray | None = None) -
 
 def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SynthesisParams | None = None,
                   progress=None, log=None) -> CrowdResult:
+    """Plan every character of ``sc`` (paper 000, section 3.1: one after another, earlier ones
+    moving obstacles for later ones), then repair.
+
+    Pass 1 plans all characters in :func:`planning_order`. Each later pass (``[synthesis]
+    passes``, default 3, counts them all) repairs only the characters left with warnings:
+    every planned character stays in the space-time index, so a repaired plan is tested
+    against all the others, before and after it in the order. A failed character is planned
+    again with a fresh random stream; if that still fails, the (at most ``REPAIR_BLOCKERS``)
+    characters its plan runs into are taken out, it is planned without them, and they are
+    planned again around it -- kept only if all of them come out clean, else everything goes
+    back as it was. The characters that clean plans never get worse, so passes only help.
+    Characters whose arrivals time others' goals (``after``) are not re-planned."""
     params = params or SynthesisParams(eps=sc.epsilon)
     for k in ("n_m", "k_m", "n_max"):
         if k in sc.synthesis:
@@ -153,69 +165,154 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     static = (lambda xz: sdf.sample(xz) - sdf.max_error) if sdf is not None else None
     t_all = time.perf_counter()
     passes = max(1, int(sc.synthesis.get("passes", 3)))
-    best = None
-    failed_first: list[int] = []
-    for k in range(passes):
-        order = planning_order(sc, first=failed_first)
-        results = _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order,
-                             progress if k == 0 else None, log, k)
+    ctx = _Context(sc, graph, env, roadmap, params, lib, fps, n_total, static,
+                   SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05)),
+                   still_nodes(graph, params.eps, fps), log)
+    order = planning_order(sc)
+    results: dict[int, CharacterResult] = {}
+    for ci in order:
+        results[ci] = _plan_one(ctx, results, ci, 0)
+        ctx.insert(ci, results[ci].track)
+        if progress:
+            progress(1)
+    k = 1
+    while k < passes:
         failed = [ci for ci in order if results[ci].warnings]
-        if best is None or len(failed) < best[0]:
-            best = (len(failed), order, results)
         if not failed:
             break
         if log:
-            log(f"pass {k + 1}: {len(failed)} character(s) without a clean plan; planning them earlier")
-        # the characters that failed are planned earlier next time (before those they ran into)
-        failed_first = failed + [ci for ci in failed_first if ci not in set(failed)]
-    _, order, results = best
+            log(f"pass {k + 1}: repairing {len(failed)} character(s) without a clean plan")
+        _repair(ctx, results, failed, k)
+        k += 1
     total = time.perf_counter() - t_all
-    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k + 1)
+    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k)
 
 
-def _plan_pass(sc, graph, env, roadmap, params, lib, fps, n_total, static, order, progress, log, k=0):
-    """One pass over the characters in ``order``; each has its own random stream (seeded by
-    the scenario seed, its index and the pass number ``k``), so its plan depends on the order
-    only through the characters planned before it, and a later pass searches afresh.
+REPAIR_BLOCKERS = 3     # planned characters a failed one may displace in a repair
+
+
+@dataclass
+class _Context:
+    sc: Scenario
+    graph: object
+    env: object
+    roadmap: object
+    params: SynthesisParams
+    lib: MotionLibrary
+    fps: float
+    n_total: int
+    static: object
+    index: SpaceTimeIndex
+    still: np.ndarray
+    log: object
+
+    def cylinders(self, track):
+        rad = np.maximum(self.graph.frame_radius[track.frames_a], self.graph.frame_radius[track.frames_b])
+        return np.arange(len(track)), track.root[:, :2], rad
+
+    def insert(self, ci, track):
+        self.index.insert(ci, *self.cylinders(track))
+
+
+def _plan_one(ctx: _Context, results, ci: int, k: int, attempt: int = 0) -> CharacterResult:
+    """Character ``ci`` planned against the space-time index. Its random stream is seeded by
+    the scenario seed, its index, the pass ``k`` and ``attempt``, so its plan depends on the
+    order only through the characters already in the index.
 
     A character whose start pose has two kinds of node -- the pose's most connected node and
     one where it can stand still and wait (for "stand": a walking hub and a standing node) --
     is planned from the first (``start_still``: the second); if that plan has warnings, it is
     planned again from the other, and the plan with fewer warnings is kept."""
-    index = SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05))
-    results: dict[int, CharacterResult] = {}
-    still = still_nodes(graph, params.eps, fps)
-    for ci in order:
-        c = sc.characters[ci]
-        t0 = time.perf_counter()
-        where = f"{sc.path}: character {c.name!r} start"
-        starts = list(dict.fromkeys([_start_node(graph, c.pose, where, still if params.start_still else None),
-                                     _start_node(graph, c.pose, where, None if params.start_still else still)]))
-        best = None
-        iters = 0
-        for attempt, node in enumerate(starts):
-            rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + ([attempt] if attempt else []))
-            out = _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results,
-                                  ci, node, rng)
-            iters += out[4]
-            if best is None or len(out[3]) < len(best[3]):
-                best = out
-            if not best[3]:
-                break
-            if log and attempt == 0 and len(starts) > 1:
-                log(f"{c.name}: planning again from the other {c.pose!r} start node")
-        track, arrivals, goals, warnings, _ = best
-        if log:
-            for w in warnings:
-                log(f"warning: {w}")
-        frames = np.arange(len(track))
-        rad = np.maximum(graph.frame_radius[track.frames_a], graph.frame_radius[track.frames_b])
-        index.insert(ci, frames, track.root[:, :2], rad)
-        results[ci] = CharacterResult(c.name, track, arrivals, goals, warnings, time.perf_counter() - t0, iters,
-                                      arrivals[-1] / fps if arrivals else 0.0)
-        if progress:
-            progress(1)
-    return results
+    sc, graph, params = ctx.sc, ctx.graph, ctx.params
+    c = sc.characters[ci]
+    t0 = time.perf_counter()
+    where = f"{sc.path}: character {c.name!r} start"
+    starts = list(dict.fromkeys([_start_node(graph, c.pose, where, ctx.still if params.start_still else None),
+                                 _start_node(graph, c.pose, where, None if params.start_still else ctx.still)]))
+    best = None
+    iters = 0
+    for a, node in enumerate(starts):
+        extra = [a] if a else []
+        if k or attempt:
+            extra = [a, attempt]
+        rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + extra)
+        out = _plan_character(sc, graph, ctx.env, ctx.roadmap, params, ctx.lib, ctx.fps, ctx.n_total, ctx.static,
+                              ctx.index, results, ci, node, rng)
+        iters += out[4]
+        if best is None or len(out[3]) < len(best[3]):
+            best = out
+        if not best[3]:
+            break
+        if ctx.log and a == 0 and len(starts) > 1:
+            ctx.log(f"{c.name}: planning again from the other {c.pose!r} start node")
+    track, arrivals, goals, warnings, _ = best
+    if ctx.log:
+        for w in warnings:
+            ctx.log(f"warning: {w}")
+    return CharacterResult(c.name, track, arrivals, goals, warnings, time.perf_counter() - t0, iters,
+                           arrivals[-1] / ctx.fps if arrivals else 0.0)
+
+
+def _repair(ctx: _Context, results: dict, failed: list, k: int) -> None:
+    """One repair pass over ``failed`` (see :func:`plan_scenario`); updates ``results`` and
+    the index in place."""
+    sc, index = ctx.sc, ctx.index
+    timing = {sc.characters.index(sc.character(g.after["character"]))
+              for c in sc.characters for g in c.goals if g.after is not None}
+
+    def spent(r, *others):
+        r.seconds += sum(o.seconds for o in others)
+        r.iterations += sum(o.iterations for o in others)
+        return r
+
+    for ci in failed:
+        if ci in timing:
+            continue
+        old = results[ci]
+        index.remove_owner(ci)
+        new = _plan_one(ctx, results, ci, k, attempt=1)
+        if not new.warnings:
+            results[ci] = spent(new, old)
+            ctx.insert(ci, new.track)
+            continue
+        hits = index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin)
+        blockers = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1])
+                    if b != ci and b not in timing][:REPAIR_BLOCKERS]
+        tried = [new]          # plans made with every other character in place
+        spare = []             # ... and without the blockers (void once they are back)
+        if blockers:
+            if ctx.log:
+                names = ", ".join(sc.characters[b].name for b in blockers)
+                ctx.log(f"{sc.characters[ci].name}: planning it without {names}, then them around it")
+            for b in blockers:
+                index.remove_owner(b)
+            first = _plan_one(ctx, results, ci, k, attempt=2)
+            spare.append(first)
+            again = {}
+            if not first.warnings:
+                ctx.insert(ci, first.track)
+                for b in blockers:
+                    rb = _plan_one(ctx, results, b, k, attempt=3)
+                    if rb.warnings:
+                        spare.append(rb)
+                        break
+                    again[b] = rb
+                    ctx.insert(b, rb.track)
+                if len(again) == len(blockers):
+                    for b, rb in again.items():
+                        results[b] = spent(rb, results[b])
+                    results[ci] = spent(first, old, new)
+                    continue
+                spare += list(again.values())
+                index.remove_owner(ci)
+                for b in again:
+                    index.remove_owner(b)
+            for b in blockers:              # as it was
+                ctx.insert(b, results[b].track)
+        cand = min(tried, key=lambda r: len(r.warnings))
+        keep = cand if len(cand.warnings) < len(old.warnings) else old
+        results[ci] = spent(keep, *[r for r in [old] + tried + spare if r is not keep])
+        ctx.insert(ci, keep.track)
 
 
 def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng):

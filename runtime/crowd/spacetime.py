@@ -112,13 +112,32 @@ class SpaceTimeIndex:
         Returns a bool array (n,) (``first_only``: a bool, True as soon as one overlaps).
         Overlap means centre distance < r_query + r_stored + margin.
         """
+        n = len(np.asarray(frames))
+        hit = np.zeros(n, dtype=bool)
+        for q, owners in self._hits(frames, xz, radius, margin, ignore_owner):
+            hit[q] = True
+            if first_only:
+                return True
+        return bool(hit.any()) if first_only else hit
+
+    def overlapping_owners(self, frames: np.ndarray, xz: np.ndarray, radius: np.ndarray,
+                           margin: float = 0.0) -> dict:
+        """The stored characters the query samples overlap: {owner: samples overlapping it}."""
+        out: dict[int, int] = {}
+        for q, owners in self._hits(frames, xz, radius, margin, None):
+            for o, k in zip(*np.unique(owners.astype(np.int64), return_counts=True)):
+                out[int(o)] = out.get(int(o), 0) + int(k)
+        return out
+
+    def _hits(self, frames, xz, radius, margin, ignore_owner):
+        """Per run of stored rows: (query sample indices, stored owners) of the overlapping
+        (query, stored) pairs (generator)."""
         frames = np.asarray(frames, dtype=np.int64)
         xz = np.asarray(xz, dtype=np.float64)
         radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape)
         n = len(frames)
-        hit = np.zeros(n, dtype=bool)
         if n == 0 or not self._runs:
-            return bool(hit.any()) if first_only else hit
+            return
         if self.cell < 2 * max(self.max_radius, float(radius.max())) + margin:
             raise ValueError(f"space-time cell {self.cell} m is smaller than twice the largest radius plus margin")
         ij = np.floor(xz / self.cell).astype(np.int64)
@@ -136,7 +155,4 @@ class SpaceTimeIndex:
             if ignore_owner is not None:
                 bad &= other[:, 3] != ignore_owner
             if bad.any():
-                hit[q[bad]] = True
-                if first_only:
-                    return True
-        return bool(hit.any()) if first_only else hit
+                yield q[bad], other[bad, 3]

@@ -95,6 +95,10 @@ class SynthesisParams:
     backward_idle: bool = False    # backward seeds may idle at the goal to spend surplus time (the World allows it)
     carrot: float = 1.5            # seeds aim this far (m) along the way-point path ahead of themselves
     carrot_final: float = 3.0      # ... until the path's end is this close (m): then at the end itself
+    retime_budget: int = 40        # colliding splices per search tried again at other durations
+    retime_tries: int = 12         # durations tried per colliding splice (nearest first)
+    retime_step: int = 3           # frames between those durations
+    max_turns: int = 6             # edges a seed may take to turn towards its target when none gains on it
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     start_still: bool = False      # characters start on a node of their pose where they can stand still
                                    # and wait (scheduler; the World always does). Off: the pose's most
@@ -244,6 +248,22 @@ class MotionLibrary:
         self._lookahead[key] = table
         return table
 
+    def change_time(self, from_nodes, to_nodes) -> float:
+        """Seconds of the quickest motion from any of ``from_nodes`` to any of ``to_nodes``
+        (0 when they share a node; inf when unreachable): what a change of state costs, e.g.
+        sitting down or picking up a box from the walking subgraph."""
+        a = np.unique(np.asarray(from_nodes, dtype=np.int64))
+        b = np.unique(np.asarray(to_nodes, dtype=np.int64))
+        key = ("change", a.tobytes(), b.tobytes())
+        if key not in self._lookahead:
+            g = self.g
+            w = np.full((g.num_nodes, g.num_nodes), np.inf)
+            np.minimum.at(w, (g.edge_src, g.edge_dst), self.dur)     # the quickest of parallel clips
+            w[~np.isfinite(w)] = 0.0                                    # dense input: 0 = no edge
+            d = shortest_path(np.where(w > 0, w, 0.0), method="D", directed=True, indices=a)
+            self._lookahead[key] = float(np.min(np.atleast_2d(d)[:, b])) if len(a) and len(b) else 0.0
+        return self._lookahead[key]
+
     def sample_alternatives(self, edges: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Replacement clips for ``edges`` (all must have alternatives), u ~ U[0, 1)."""
         k = np.searchsorted(self.alt_cum, edges + u, side="right")
@@ -335,7 +355,7 @@ class SegmentPlanner:
 
     def greedy_steps(self, start_node: int, start_cfg: np.ndarray, frame0: int, waypoints: np.ndarray,
                      final_heading, travel: int, target_nodes, reverse: bool, rng,
-                     time_budget: float | None = None):
+                     time_budget: float | None = None, reserve: float = 0.0):
         """Generator (yields after every edge it adds) of a greedy seed motion (paper 000, section 3.2). ``reverse`` plans M_b on the
         time-reversed graph (edges walked from their end to their start). Returns
         (edges in the walking order, last node).
@@ -354,6 +374,9 @@ class SegmentPlanner:
         one prefers, among the improving edges, the one whose progress rate matches the rate
         the budget asks for, and idles on the node's self-loop clips while time is in
         surplus, so that the seeds are already close to the time window the search must meet.
+        The budget counts the seed's own state-change prefix (standing up, say) and leaves
+        ``reserve`` seconds for the change at the far end (sitting down, picking up), which the
+        seed makes after the greedy part or the other seed contributes.
         """
         g, lib = self.g, self.lib
         src, dst = (g.edge_src, g.edge_dst) if not reverse else (g.edge_dst, g.edge_src)
@@ -432,15 +455,27 @@ class SegmentPlanner:
             if sc >= total - 1e-9 or total - s_proj < self.p.carrot_final:
                 tp, wi = waypoints[-1], len(waypoints) - 1
                 return True
-            j = int(np.clip(np.searchsorted(cum, sc, side="right") - 1, 0, len(seg_len) - 1))
-            u = (sc - cum[j]) / max(seg_len[j], 1e-12)
-            tp = waypoints[j] + u * (waypoints[j + 1] - waypoints[j])
-            wi = j + 1
+            if self.env is not None:
+                # the target must be in sight: a carrot moved round a corner (a row's end, a
+                # door post) would pull the seed into the obstacle's far side
+                ss = np.linspace(s_proj, sc, 8)
+                seen = self.env.segment_clear(cfg[None, :2], path_point(ss), 0.55)
+                if seen[0]:
+                    k = int(np.argmin(seen)) - 1 if not seen.all() else len(ss) - 1
+                    sc = float(ss[k])
+            tp = path_point(np.array([sc]))[0]
+            wi = int(np.clip(np.searchsorted(cum, sc, side="right") - 1, 0, len(seg_len) - 1)) + 1
             return False
 
-        elapsed = 0.0
+        def path_point(ss):
+            j = np.clip(np.searchsorted(cum, ss, side="right") - 1, 0, len(seg_len) - 1)
+            u = (ss - cum[j]) / np.maximum(seg_len[j], 1e-12)
+            return waypoints[j] + u[:, None] * (waypoints[j + 1] - waypoints[j])
+
+        elapsed = float(lib.dur[edges].sum()) + float(reserve) if edges else float(reserve)
         waits = 0
         sidesteps = 0
+        turns = 0
         # planned characters count where the seed's frames mean something: forward, or backward
         # from a time window
         timed = (not reverse) or time_budget is not None
@@ -465,6 +500,12 @@ class SegmentPlanner:
             return near | (self.static(ends) >= room)
 
         table = lib.lookahead(reverse, travel)
+        # nodes where a seed can stand and wait: a self-loop clip of the travel state that
+        # stays on the spot
+        still_loop = in_travel & (src == dst) & (np.hypot(disp[:, 0], disp[:, 1]) < 0.1)
+        idle_node = np.zeros(g.num_nodes, dtype=bool)
+        idle_node[src[still_loop]] = True
+        turn_rate = float(np.max(np.abs(disp[in_travel, 2]) / lib.dur[in_travel])) if in_travel.any() else 1.0
         while len(edges) < self.p.max_seed_edges:
             final = place_carrot()
             out, comb, dur2 = table[node]
@@ -485,6 +526,10 @@ class SegmentPlanner:
             cur = float(err(cfg, final))
             if time_budget is not None:
                 remaining = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1])) + (0.0 if final else total - min(s_proj + ahead, total))
+                # facing away from the target, turning round takes time too (walking on while
+                # turning, for a state without turns on the spot): half the state's top turn rate
+                facing_off = float(np.abs(wrap_angle(cfg[2] + face_off - np.arctan2(tp[0] - cfg[0], tp[1] - cfg[1]))))
+                remaining += 1.1 * facing_off / max(0.5 * turn_rate, 1e-3) if facing_off > np.pi / 4 else 0.0
                 left = time_budget - elapsed
                 loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
                 # surplus time is spent idling at the start of the segment, where the character
@@ -523,12 +568,18 @@ class SegmentPlanner:
                     loops = out[(dst[out] == node) & (np.hypot(disp[out, 0], disp[out, 1]) < 0.1)]
                     if len(loops):
                         w = loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))][None]
-                        if clear_here(w, timed)[0]:
-                            waits += 1
-                            advance(int(w[0]))
-                            elapsed += float(lib.dur[w[0]])
-                            yield
-                            continue
+                    else:
+                        # a walking hub has no such clip: stop first, on the shortest clear
+                        # clip to a node where one can stand and wait
+                        stops = out[idle_node[dst[out]] & (np.hypot(disp[out, 0], disp[out, 1]) < 1.0)]
+                        w = stops[np.argsort(np.hypot(disp[stops, 0], disp[stops, 1]), kind="stable")][:6]
+                        w = w[clear_here(w, timed)][:1] if len(w) else w
+                    if len(w) and clear_here(w, timed)[0]:
+                        waits += 1
+                        advance(int(w[0]))
+                        elapsed += float(lib.dur[w[0]])
+                        yield
+                        continue
             if pick is None:
                 far = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1])) > self.p.reach_radius
                 if far and len(order) and sidesteps < self.p.max_sidesteps:
@@ -544,6 +595,27 @@ class SegmentPlanner:
                         elapsed += float(lib.dur[edges[-1]])
                         yield
                         continue
+                if far and not len(order) and turns < self.p.max_turns:
+                    # facing away from the target with nothing that gains on it (a character
+                    # holding a box has no clip that turns on the spot: it turns while walking
+                    # on): take the clear edge that turns it furthest towards the target
+                    ang = lambda c: np.abs(wrap_angle(c[..., 2] + face_off - np.arctan2(tp[0] - c[..., 0], tp[1] - c[..., 1])))
+                    a_now = float(ang(cfg))
+                    if a_now > np.pi / 3:
+                        # with the lookahead: the best angle one more edge can reach
+                        a2 = np.nan_to_num(ang(ends2), nan=np.inf)
+                        k2t = np.argmin(a2, axis=1)
+                        a_new = np.minimum(ang(ends), a2[rows, k2t])
+                        score = a_new + 0.3 * np.hypot(ends[:, 0] - tp[0], ends[:, 1] - tp[1])
+                        turning = np.flatnonzero(a_new < a_now - 0.1)
+                        cand = out[turning[np.argsort(score[turning], kind="stable")][:24]]
+                        ok = clear_here(cand, timed) & roomy(cand)
+                        if ok.any():
+                            turns += 1
+                            advance(cand[np.argmax(ok)])
+                            elapsed += float(lib.dur[edges[-1]])
+                            yield
+                            continue
                 if not final:
                     # nothing gains on this target: aim further along the path
                     ahead += self.p.carrot
@@ -701,6 +773,17 @@ class SegmentPlanner:
             window_rel = (goal.window[0] - t0, goal.window[1] - t0)
         eps_p = p.eps[0]
         self._start_node = int(start.node)
+        # time the seeds leave for a change of state at their far ends (section 3.2's
+        # fewest-edge paths): the forward seed's into the goal pose, the backward seed's out
+        # of the start pose
+        travel_nodes = np.flatnonzero(g.node_state == travel)
+        reserve_f = reserve_b = 0.0
+        if budget is not None:
+            if tgt is not None:
+                reserve_f = lib.change_time(travel_nodes, tgt)
+            reserve_b = lib.change_time([start.node], travel_nodes)
+            reserve_f = reserve_f if np.isfinite(reserve_f) else 0.0
+            reserve_b = reserve_b if np.isfinite(reserve_b) else 0.0
         queue = [base]
         tried_detours = 0
         iterations = 0
@@ -711,7 +794,7 @@ class SegmentPlanner:
         while result is None and iterations < p.n_max and queue:
             wps = queue.pop(0)
             F0, f_end = yield from self.greedy_steps(start.node, start.xzh, start.frame, wps, goal.heading, travel,
-                                                     tgt, False, rng, time_budget=budget)
+                                                     tgt, False, rng, time_budget=budget, reserve=reserve_f)
             if not F0:
                 # already as close as the graph gets: take the out-edge that ends nearest the goal,
                 # so that the segment has a motion to adjust
@@ -742,7 +825,7 @@ class SegmentPlanner:
             goal_frame = int(round(p.fps * 0.5 * (goal.window[0] + goal.window[1]))) if goal.window else start.frame
             B0r, _ = yield from self.greedy_steps(goal_node, goal_cfg, goal_frame, wps[::-1], start.heading, travel,
                                                   np.array([start.node]) if g.node_state[start.node] == travel else None,
-                                                  True, rng, time_budget=budget)
+                                                  True, rng, time_budget=budget, reserve=reserve_b)
             B0 = B0r[::-1]
             yield
             out = yield from self._search(start, goal_cfg, goal_node, F0, B0, window_rel, travel, owner, rng,
@@ -799,6 +882,7 @@ class SegmentPlanner:
         rejected = set()
         collision_at = None
         iterations = 0
+        retimes = [p.retime_budget]      # colliding splices that may be tried at other durations
 
         def try_accept(cost, Frow, i, Brow, j):
             nonlocal collision_at
@@ -813,6 +897,24 @@ class SegmentPlanner:
             if res.rates[0] > p.eps[0] * tol or res.rates[1] > p.eps[1] * tol or res.rates[2] > p.eps[2] * tol:
                 return None
             hit = self.final_collision(res, owner)
+            if hit is not None and self.collide is not None and retimes[0] > 0:
+                # the same motion a little slower or faster (time resampling within eps_t and
+                # the window) passes the others at other moments: try the nearest durations
+                retimes[0] -= 1
+                m0 = len(res.root) - 1
+                raw = int(sum(lib.nframes[e] - 1 for e in res.edges))      # source frame steps
+                lo_m = int(np.ceil(raw / (1 + p.eps[2]))) + 1
+                hi_m = int(np.floor(raw / max(1 - p.eps[2], 1e-3))) - 1
+                cands = [m for k in range(1, 64) for m in (m0 + p.retime_step * k, m0 - p.retime_step * k)
+                         if lo_m <= m <= hi_m][:p.retime_tries]
+                for m in cands:
+                    r2 = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, frames=m)
+                    if r2 is None or r2.rates[0] > p.eps[0] * tol or r2.rates[1] > p.eps[1] * tol \
+                            or r2.rates[2] > p.eps[2] * tol:
+                        continue
+                    if self.final_collision(r2, owner) is None:
+                        r2.cost = float(cost)
+                        return r2
             if hit is not None:
                 if collision_at is None and hit < len(res.root):
                     k = hit
@@ -894,7 +996,11 @@ class SegmentPlanner:
         return None, iterations, best, collision_at
 
     # -- splice (steps 1-4) -------------------------------------------------------------------------------
-    def splice(self, start: Config, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=False):
+    def splice(self, start: Config, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, force=False,
+               frames: int | None = None):
+        """Steps 1-4 of section 3.3 for the pair (M_f[:i], M_b[j:]). The result lasts the
+        duration nearest the raw one inside the window, or ``frames`` output frames (None if
+        outside the window)."""
         g, lib, p = self.g, self.lib, self.p
         fe = [int(e) for e in Frow[:i]]
         be = [int(e) for e in Brow[j:] if e >= 0]
@@ -981,6 +1087,10 @@ class SegmentPlanner:
                 return None
         else:
             m1 = n_src - 1
+        if frames is not None:
+            m1 = int(frames)
+            if window_rel is not None and not (window_rel[0] - 1e-9 <= m1 / fps <= window_rel[1] + 1e-9):
+                return None
         m1 = max(m1, 1)
         # Each part is resampled on its own so that the junction lands exactly on an output
         # frame: an output frame straddling it would mix the two parts' displacement maps (whose
