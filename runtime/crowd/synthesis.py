@@ -487,16 +487,19 @@ class SegmentPlanner:
                                np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
                                moving=moving)
         goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
+        home_xz = np.asarray(start_cfg[:2], dtype=np.float64)
         room = self.p.end_clearance
 
         def roomy(es):
             """Edges whose end leaves room to walk on: ``end_clearance`` from the static
             obstacles (a seed that stops closer, at a corner, cannot leave it), except near the
-            segment's end, where the goal itself may be close to an obstacle."""
+            segment's ends, where the goal or the start itself may be close to an obstacle (a
+            seat or a box by a wall)."""
             if self.static is None or not room:
                 return np.ones(len(es), dtype=bool)
             ends = compose(cfg[None], disp[es])[:, :2]
             near = np.hypot(ends[:, 0] - goal_xz[0], ends[:, 1] - goal_xz[1]) < self.p.approach_radius
+            near |= np.hypot(ends[:, 0] - home_xz[0], ends[:, 1] - home_xz[1]) < self.p.reach_radius
             return near | (self.static(ends) >= room)
 
         table = lib.lookahead(reverse, travel)
@@ -907,11 +910,10 @@ class SegmentPlanner:
                 hi_m = int(np.floor(raw / max(1 - p.eps[2], 1e-3))) - 1
                 cands = [m for k in range(1, 64) for m in (m0 + p.retime_step * k, m0 - p.retime_step * k)
                          if lo_m <= m <= hi_m][:p.retime_tries]
-                for m in cands:
-                    r2 = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel, frames=m)
-                    if r2 is None or r2.rates[0] > p.eps[0] * tol or r2.rates[1] > p.eps[1] * tol \
-                            or r2.rates[2] > p.eps[2] * tol:
-                        continue
+                rs = [r for r in self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel,
+                                             frames=cands) if r is not None and r.rates[0] <= p.eps[0] * tol
+                      and r.rates[1] <= p.eps[1] * tol and r.rates[2] <= p.eps[2] * tol] if cands else []
+                for r2 in self._clear_motions(rs):
                     if self.final_collision(r2, owner) is None:
                         r2.cost = float(cost)
                         return r2
@@ -1000,7 +1002,7 @@ class SegmentPlanner:
                frames: int | None = None):
         """Steps 1-4 of section 3.3 for the pair (M_f[:i], M_b[j:]). The result lasts the
         duration nearest the raw one inside the window, or ``frames`` output frames (None if
-        outside the window)."""
+        outside the window); ``frames`` a sequence: a list of results, one per duration."""
         g, lib, p = self.g, self.lib, self.p
         fe = [int(e) for e in Frow[:i]]
         be = [int(e) for e in Brow[j:] if e >= 0]
@@ -1083,19 +1085,29 @@ class SegmentPlanner:
                 m1 += 1
             if m1 / fps > hi + 1e-9:
                 m1 -= 1
-            if not (lo - 1e-9 <= m1 / fps <= hi + 1e-9) and not force:
+            if not (lo - 1e-9 <= m1 / fps <= hi + 1e-9) and not force and frames is None:
                 return None
         else:
             m1 = n_src - 1
-        if frames is not None:
-            m1 = int(frames)
-            if window_rel is not None and not (window_rel[0] - 1e-9 <= m1 / fps <= window_rel[1] + 1e-9):
-                return None
-        m1 = max(m1, 1)
+        if frames is None:
+            return self._resample(src_frames, src_root, len(ff), len(bf), dp, dh, N, goal_node, start, edges, m1)
+        out = []
+        for m in np.atleast_1d(frames):
+            m = int(m)
+            inside = window_rel is None or (window_rel[0] - 1e-9 <= m / fps <= window_rel[1] + 1e-9)
+            out.append(self._resample(src_frames, src_root, len(ff), len(bf), dp, dh, N, goal_node, start, edges, m)
+                       if inside and m >= 1 else None)
+        return out if np.ndim(frames) else out[0]
+
+    def _resample(self, src_frames, src_root, nff, nbf, dp, dh, N, goal_node, start, edges, m1):
+        """Step 4: the spliced source frames resampled to ``m1`` output steps."""
+        p = self.p
+        n_src = len(src_frames)
+        m1 = max(int(m1), 1)
         # Each part is resampled on its own so that the junction lands exactly on an output
         # frame: an output frame straddling it would mix the two parts' displacement maps (whose
         # raw paths meet at an angle, the heading error not yet spread) into one step.
-        jf = len(ff) - 1 if len(ff) and len(bf) else -1          # junction index in the source
+        jf = nff - 1 if nff and nbf else -1          # junction index in the source
         if 0 < jf < n_src - 1 and m1 >= 2 and p.split_resample:
             # the junction's output frame: the one that keeps both parts' warps smallest
             ideal = m1 * jf / (n_src - 1)
@@ -1185,6 +1197,25 @@ class SegmentPlanner:
         for q, c in enumerate(cols):
             tgt_rows[:, c] = grid[:, q]
         return Fs, Bs
+
+    def _clear_motions(self, results: list) -> list:
+        """The results whose own frames are clear of obstacles and planned characters, in
+        order (one vectorized test over all of them; :meth:`final_collision` per result)."""
+        if not results:
+            return []
+        g, p = self.g, self.p
+        lens = [len(r.root) for r in results]
+        frames = np.concatenate([r.start_frame + np.arange(n) for r, n in zip(results, lens)])
+        xz = np.concatenate([r.root[:, :2] for r in results])
+        rad = np.concatenate([np.maximum(g.frame_radius[r.frames_a], g.frame_radius[r.frames_b])
+                              for r in results]).astype(np.float64) + p.margin
+        bad = np.zeros(len(xz), dtype=bool)
+        if self.static is not None:
+            bad |= self.static(xz) < rad
+        if self.collide is not None:
+            bad |= np.asarray(self.collide(frames, xz, rad), dtype=bool)
+        any_bad = np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(lens)[:-1]]))
+        return [r for r, b in zip(results, any_bad) if not b]
 
     def final_collision(self, res: SegmentResult, owner: int):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,

@@ -72,7 +72,7 @@ def world():
         marker(stage, f"/World/Seats/s{i:02d}", "seat", r * math.sin(a), r * math.cos(a), math.degrees(a))
     UsdGeom.Scope.Define(stage, "/World/Boxes")
     for i in range(4):
-        marker(stage, f"/World/Boxes/b{i}", "box", 8.6, -2.4 + 1.6 * i, -90.0)
+        marker(stage, f"/World/Boxes/b{i}", "box", 7.6, -2.4 + 1.6 * i, -90.0)   # 2.2 m off the kiosk: room to turn round carrying
     UsdGeom.Scope.Define(stage, "/World/Spawns")
     for i in range(4):
         a = 2 * math.pi * i / 4
@@ -99,7 +99,7 @@ def scenario():
     # sitters come in from the edges
     for i in range(6):
         a = 2 * math.pi * (i + 0.5) / 8
-        x, z = 11.5 * math.sin(a + 0.4), 11.5 * math.cos(a + 0.4)
+        x, z = 13.0 * math.sin(a + 0.4), 13.0 * math.cos(a + 0.4)      # clear of the planters and the kiosk
         char(f"sitter{i}", x, z, math.degrees(a) + 180, [{"seat": f'"/World/Seats/s{i:02d}"'}])
     # two pairs meet, face to face, at the same moment
     for k, (cx, cz) in enumerate([(-5.0, 0.0), (0.0, -6.0)]):
