@@ -401,3 +401,23 @@ def test_repair_puts_everything_back_when_a_blocker_fails(monkeypatch):
     assert results[2].seconds == 4.0          # its old plan and three tries (one of them a's)
     probe = lambda x: ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.05]))
     assert 0 in probe(0.0) and not probe(2.5) and set(probe(5.0)) == {1}
+
+
+def test_a_seat_is_approached_from_in_front(default_graph):
+    """With ``approach_point``, the way points to a seat pass a point that far in front of it,
+    so a character coming from the side walks in front of the seat before it sits (not across
+    the neighbouring seats)."""
+    g = default_graph
+    node = int(g.nodes_with_label("stand")[0])
+    sit = g.nodes_with_label("sit")
+    seat, facing = np.array([0.0, 0.0]), 0.0          # sits facing +Z: "in front" is +Z
+    start = Config(node, 6.0, 0.5, np.radians(-90.0), 0)   # comes in from the side (+X)
+
+    def closest(ap, nodes):
+        lib = MotionLibrary(g, SynthesisParams(approach_point=ap))
+        res = run_to_completion(SegmentPlanner(lib).run(start, Goal(seat, facing, nodes, None), np.random.default_rng(0)))
+        assert res.ok
+        return np.hypot(res.root[:, 0] - 0.0, res.root[:, 1] - 1.2).min()
+
+    near, far = closest(1.2, sit), closest(0.0, sit)      # measured: 0.25 m and 0.74 m
+    assert near < 0.35 and far > near + 0.3
