@@ -392,12 +392,15 @@ class SegmentPlanner:
         a1 = self.p.alpha[0]
         t_sign = -1 if reverse else 1
 
+        elapsed = 0.0           # seconds of motion so far (+ the reserve, once past the prefix)
+
         def advance(e):
-            nonlocal node, cfg, frame
+            nonlocal node, cfg, frame, elapsed
             edges.append(int(e))
             cfg = compose(cfg, disp[e])
             node = int(dst[e])
             frame += t_sign * int(lib.nframes[e] - 1)
+            elapsed += float(lib.dur[e])
 
         # prefix: leave the start state for the travel state by the fewest edges
         if g.node_state[node] != travel:
@@ -475,7 +478,7 @@ class SegmentPlanner:
             u = (ss - cum[j]) / np.maximum(seg_len[j], 1e-12)
             return waypoints[j] + u[:, None] * (waypoints[j + 1] - waypoints[j])
 
-        elapsed = float(lib.dur[edges].sum()) + float(reserve) if edges else float(reserve)
+        elapsed += float(reserve)
         waits = 0
         sidesteps = 0
         turns = 0
@@ -504,6 +507,11 @@ class SegmentPlanner:
             near = np.hypot(ends[:, 0] - goal_xz[0], ends[:, 1] - goal_xz[1]) < self.p.approach_radius
             near |= np.hypot(ends[:, 0] - home_xz[0], ends[:, 1] - home_xz[1]) < self.p.reach_radius
             return near | (self.static(ends) >= room)
+
+        def first_ok(cand):
+            """The first of ``cand`` that is clear and leaves room to walk on, or None."""
+            ok = clear_here(cand, timed) & roomy(cand)
+            return int(cand[np.argmax(ok)]) if ok.any() else None
 
         table = lib.lookahead(reverse, travel)
         # nodes where a seed can stand and wait: a self-loop clip of the travel state that
@@ -544,7 +552,6 @@ class SegmentPlanner:
                 # the way of characters passing before the window opens
                 if (not reverse or self.p.backward_idle) and len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
                     advance(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
-                    elapsed += float(lib.dur[edges[-1]])
                     continue
                 want = remaining / max(left, 0.3)
                 pos_now = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1]))
@@ -587,25 +594,20 @@ class SegmentPlanner:
                     if len(w) and clear_here(w, timed)[0]:
                         waits += 1
                         advance(int(w[0]))
-                        elapsed += float(lib.dur[w[0]])
                         yield
                         continue
             if pick is None:
                 far = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1])) > self.p.reach_radius
+                alt = None          # a clear edge that does not gain: a sidestep or a turn
                 if far and len(order) and sidesteps < self.p.max_sidesteps:
                     # blocked short of the way point (an obstacle or a planned character in the
                     # way): take the clear edge that loses least, rather than skip the way point
                     moves = np.hypot(ends[:, 0] - cfg[0], ends[:, 1] - cfg[1]) > 0.3
                     cand = out[np.argsort(np.where(moves, e, np.inf), kind="stable")[:24]]
                     cand = cand[np.hypot(*(compose(cfg[None], disp[cand])[:, :2] - cfg[None, :2]).T) > 0.3]
-                    ok = clear_here(cand, timed) & roomy(cand)
-                    if ok.any():
-                        sidesteps += 1
-                        advance(cand[np.argmax(ok)])
-                        elapsed += float(lib.dur[edges[-1]])
-                        yield
-                        continue
-                if far and not len(order) and turns < self.p.max_turns:
+                    alt = first_ok(cand)
+                    sidesteps += alt is not None
+                elif far and not len(order) and turns < self.p.max_turns:
                     # facing away from the target with nothing that gains on it (a character
                     # holding a box has no clip that turns on the spot: it turns while walking
                     # on): take the clear edge that turns it furthest towards the target
@@ -618,14 +620,12 @@ class SegmentPlanner:
                         a_new = np.minimum(ang(ends), a2[rows, k2t])
                         score = a_new + 0.3 * np.hypot(ends[:, 0] - tp[0], ends[:, 1] - tp[1])
                         turning = np.flatnonzero(a_new < a_now - 0.1)
-                        cand = out[turning[np.argsort(score[turning], kind="stable")][:24]]
-                        ok = clear_here(cand, timed) & roomy(cand)
-                        if ok.any():
-                            turns += 1
-                            advance(cand[np.argmax(ok)])
-                            elapsed += float(lib.dur[edges[-1]])
-                            yield
-                            continue
+                        alt = first_ok(out[turning[np.argsort(score[turning], kind="stable")][:24]])
+                        turns += alt is not None
+                if alt is not None:
+                    advance(alt)
+                    yield
+                    continue
                 if not final:
                     # nothing gains on this target: aim further along the path
                     ahead += self.p.carrot
@@ -635,7 +635,6 @@ class SegmentPlanner:
                 break
             advance(pick)
             ahead = self.p.carrot
-            elapsed += float(lib.dur[pick])
             yield
             if tgt is not None and node in tgt:
                 best = (list(edges), node, cfg.copy())
