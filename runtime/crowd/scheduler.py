@@ -149,8 +149,9 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     again with a fresh random stream; if that still fails, the (at most ``REPAIR_BLOCKERS``)
     characters its plan runs into are taken out, it is planned without them, and they are
     planned again around it -- kept only if all of them come out clean, else everything goes
-    back as it was. The characters that clean plans never get worse, so passes only help.
-    Characters whose arrivals time others' goals (``after``) are not re-planned."""
+    back as it was. No character's plan is replaced by one with more warnings, so later
+    passes only help. Characters whose arrivals time others' goals (``after``) are not
+    re-planned."""
     params = params or SynthesisParams(eps=sc.epsilon)
     for k in ("n_m", "k_m", "n_max"):
         if k in sc.synthesis:
