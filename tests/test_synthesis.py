@@ -115,15 +115,15 @@ def test_overlapping_pairs_counts_frames():
     assert overlapping_pairs(XZ, R) == {(0, 1): 2}      # 0.3 and 0.1 apart; 0.5 is not below 0.4
 
 
-def test_planning_order_puts_failed_characters_first_but_keeps_dependencies():
+def test_planning_order_puts_dependencies_first():
     sc = parse_scenario({"name": "o", "duration": 10.0, "character": [
         {"name": "a", "start": {"position": [0, 0]}, "goal": [{"position": [1, 0]}]},
         {"name": "b", "start": {"position": [0, 3]}, "goal": [{"position": [1, 3]}]},
         {"name": "c", "start": {"position": [0, 6]},
          "goal": [{"position": [1, 6], "after": {"character": "b", "goal": 0, "within": [0.0, 2.0]}}]}]})
     assert planning_order(sc) == [0, 1, 2]
-    assert planning_order(sc, first=[2]) == [1, 2, 0]
-    assert planning_order(sc, first=[1]) == [1, 0, 2]
+    sc.characters = sc.characters[::-1]            # c first in the file: b still before it
+    assert planning_order(sc) == [1, 0, 2]
 
 
 @pytest.mark.slow

@@ -336,9 +336,8 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
     return sc
 
 
-def planning_order(sc: Scenario, first=()) -> list[int]:
-    """Characters in an order that respects ``after`` (topological; ties keep file order,
-    except that the characters in ``first`` come as early as their dependencies allow).
+def planning_order(sc: Scenario) -> list[int]:
+    """Characters in an order that respects ``after`` (topological; ties keep file order).
     A cycle is a ScenarioError naming the characters in it."""
     idx = {c.name: i for i, c in enumerate(sc.characters)}
     deps = [set() for _ in sc.characters]
@@ -374,8 +373,7 @@ def planning_order(sc: Scenario, first=()) -> list[int]:
         state[i] = 2
         order.append(i)
 
-    front = [i for i in first if 0 <= i < len(deps)]
-    for i in front + [i for i in range(len(deps)) if i not in set(front)]:
+    for i in range(len(deps)):
         visit(i, [])
     return order
 
