@@ -263,7 +263,7 @@ class MotionLibrary:
             w = np.full((g.num_nodes, g.num_nodes), np.inf)
             np.minimum.at(w, (g.edge_src, g.edge_dst), self.dur)     # the quickest of parallel clips
             w[~np.isfinite(w)] = 0.0                                    # dense input: 0 = no edge
-            d = shortest_path(np.where(w > 0, w, 0.0), method="D", directed=True, indices=a)
+            d = shortest_path(w, method="D", directed=True, indices=a)
             self._lookahead[key] = float(np.min(np.atleast_2d(d)[:, b])) if len(a) and len(b) else 0.0
         return self._lookahead[key]
 
@@ -908,6 +908,9 @@ class SegmentPlanner:
         iterations = 0
         retimes = [p.retime_budget]      # colliding splices that may be tried at other durations
 
+        def within_eps(r):
+            return all(x <= e * (1 + 1e-9) for x, e in zip(r.rates, p.eps))
+
         def try_accept(cost, Frow, i, Brow, j):
             nonlocal collision_at
             key = (tuple(Frow[:i]), tuple(Brow[j:][Brow[j:] >= 0]))
@@ -917,8 +920,7 @@ class SegmentPlanner:
             res = self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel)
             if res is None:
                 return None
-            tol = 1 + 1e-9
-            if res.rates[0] > p.eps[0] * tol or res.rates[1] > p.eps[1] * tol or res.rates[2] > p.eps[2] * tol:
+            if not within_eps(res):
                 return None
             hit = self.final_collision(res, owner)
             if hit is not None and self.collide is not None and retimes[0] > 0:
@@ -932,8 +934,7 @@ class SegmentPlanner:
                 cands = [m for k in range(1, 64) for m in (m0 + p.retime_step * k, m0 - p.retime_step * k)
                          if lo_m <= m <= hi_m][:p.retime_tries]
                 rs = [r for r in self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel,
-                                             frames=cands) if r is not None and r.rates[0] <= p.eps[0] * tol
-                      and r.rates[1] <= p.eps[1] * tol and r.rates[2] <= p.eps[2] * tol] if cands else []
+                                             frames=cands) if r is not None and within_eps(r)] if cands else []
                 for r2 in self._clear_motions(rs):
                     if self.final_collision(r2, owner) is None:
                         r2.cost = float(cost)
@@ -1224,9 +1225,16 @@ class SegmentPlanner:
         order (one vectorized test over all of them; :meth:`final_collision` per result)."""
         if not results:
             return []
-        g, p = self.g, self.p
         lens = [len(r.root) for r in results]
-        frames = np.concatenate([r.start_frame + np.arange(n) for r, n in zip(results, lens)])
+        bad = self._motion_hits(results)
+        any_bad = np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(lens)[:-1]]))
+        return [r for r, b in zip(results, any_bad) if not b]
+
+    def _motion_hits(self, results: list) -> np.ndarray:
+        """Per output frame of ``results`` (concatenated): whether its bounding cylinder
+        (plus ``margin``) hits an obstacle or a planned character."""
+        g, p = self.g, self.p
+        frames = np.concatenate([r.start_frame + np.arange(len(r.root)) for r in results])
         xz = np.concatenate([r.root[:, :2] for r in results])
         rad = np.concatenate([np.maximum(g.frame_radius[r.frames_a], g.frame_radius[r.frames_b])
                               for r in results]).astype(np.float64) + p.margin
@@ -1235,23 +1243,14 @@ class SegmentPlanner:
             bad |= self.static(xz) < rad
         if self.collide is not None:
             bad |= np.asarray(self.collide(frames, xz, rad), dtype=bool)
-        any_bad = np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(lens)[:-1]]))
-        return [r for r, b in zip(results, any_bad) if not b]
+        return bad
 
     def final_collision(self, res: SegmentResult, owner: int):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,
         or None (the final test of section 3.3); ``len(res.root)`` when the motion is clear but
         standing at its end afterwards (:attr:`hold`) would be in someone's way."""
-        g, p = self.g, self.p
-        frames = res.start_frame + np.arange(len(res.root))
-        rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
-        xz = res.root[:, :2]
-        bad = np.zeros(len(xz), dtype=bool)
-        if self.static is not None:
-            bad |= self.static(xz) < rad
-        if self.collide is not None:
-            bad |= np.asarray(self.collide(frames, xz, rad), dtype=bool)
-        hit = np.flatnonzero(bad)
+        p = self.p
+        hit = np.flatnonzero(self._motion_hits([res]))
         if len(hit):
             return int(hit[0])
         if self.hold is not None:
