@@ -458,21 +458,21 @@ def rooms_scenario(seed: int = 0, movers: bool = False) -> dict:
 # ----------------------------------------------------------------------------------------------
 # Experiment 4: theater
 SEAT_X = -5.25 + 1.5 * np.arange(8)            # 8 seats a row, 1.5 m apart
-ROW_PITCH = 2.6
-ROW_Z = 6.0 - ROW_PITCH * np.arange(5)         # back row first
+ROW_PITCH = 3.2
+ROW_Z = 7.5 - ROW_PITCH * np.arange(5)         # back row first
 RAIL_HALF_WIDTH = 6.0                          # row partitions span the seat block, x -6..6
 THEATER_DOORS = (-7.5, 7.5)
-THEATER_GAP = 3.0                              # s between consecutive seats of a half theater
+THEATER_GAP = 4.0                              # s between consecutive seats of a half theater
 
 
 def theater_world() -> WorldBuilder:
     """A 20 x 22 m hall (x -10..10, z -10..12) with a stage at -Z and 5 rows of 8 seats facing
-    it (1.5 m between seats, 2.6 m between rows, 4 m side aisles), and a lobby (z 12..24)
+    it (1.5 m between seats, 3.2 m between rows, 4 m side aisles), and a lobby (z 12..24)
     joined to the hall by two 3 m doors at x = -7.5 and 7.5.
 
     Between consecutive rows (and behind the back row, in front of the front row) a 0.2 m row
     partition -- the seat backs of the row in front -- spans the seat block: a row is entered
-    from the side aisles only, and its lane (the 1.5 m between its seats' front edge and the
+    from the side aisles only, and its lane (the 2.1 m between its seats' front edge and the
     next partition) fits a walking character (radius up to 0.63 m) in front of its empty seats
     while a seated character (0.62-0.72 m) clears the partition behind it."""
     w = WorldBuilder("crowdweave sample theater40: lobby, two doors, hall with 5 rows of 8 seats facing a "
@@ -482,7 +482,7 @@ def theater_world() -> WorldBuilder:
     w.wall("South", (-10, 24), (10, 24))
     w.wall("West", (-10, -10), (-10, 24))
     w.wall("Foyer", (-10, 12), (10, 12), doors=[(d + 10, 3.0) for d in THEATER_DOORS])
-    w.block("Stage", -7.0, -9.9, 7.0, -6.5, 1.0)
+    w.block("Stage", -7.0, -9.9, 7.0, -8.2, 1.0)
     w.pillar("LobbyPillar", 0.0, 17.5, 0.5)
     w.block("Counter", -1.5, 22.4, 1.5, 23.6, 1.1)
     for k, z in enumerate(list(ROW_Z + 1.0) + [ROW_Z[-1] - ROW_PITCH + 1.0]):
@@ -497,7 +497,7 @@ def theater_scenario(seed: int = 0) -> dict:
     """40 characters wait in the lobby in two 4 x 5 blocks (2 m spacing) beside the two doors
     and take seats row by row, back row first and inner seats first in each half row (so no
     one passes a seated character closely). Those nearest their door go first; seat k of a
-    half-theater is reached in [18 + g k, 18 + g (k + 1)] s with g = ``THEATER_GAP`` (3 s: the
+    half-theater is reached in [18 + g k, 18 + g (k + 1)] s with g = ``THEATER_GAP`` (4 s: the
     one before has sat down by then, so the two are not walking the row's lane together)."""
     chars = []
     order = []
@@ -532,7 +532,7 @@ def theater_scenario(seed: int = 0) -> dict:
 FETCH_SEAT_X = 1.5 + 1.6 * np.arange(5)
 FETCH_ROWS = ((1.2, 0.0), (6.8, 180.0), (9.2, 0.0), (14.8, 180.0))   # (z, heading): two corridors
 FETCH_DOORS = (4.0, 12.0)
-FETCH_GAP = 4.0                       # s between consecutive characters of a corridor
+FETCH_GAP = 6.0                       # s between consecutive characters of a corridor
 FETCH_BOX_INSET = 2.1                 # m from the wall behind a box to the box
 
 
@@ -573,10 +573,10 @@ def fetch_scenario(seed: int = 0) -> dict:
     """Each seated character stands up, picks up its box in room B, carries it to its spot in
     room B (a 5 x 2 block per corridor, off the routes to the boxes), puts it down (pose
     "stand") and returns to its own seat. Characters nearest the door leave first,
-    ``FETCH_GAP`` (4 s) apart, and fetch the farthest boxes. The pick-up and the put-down have
-    2.5 s windows laid out from the distances (walking 1 m/s, carrying 0.7 m/s, about 3.5 s
-    per pose change); the return to the seat has none (the paper's Experiment 5 times no
-    goal): a character sits down when it gets there."""
+    ``FETCH_GAP`` (6 s) apart, taking turns between the two walls' boxes. The
+    pick-up and the put-down have 2.5 s windows laid out from the distances (walking 1 m/s,
+    carrying 0.7 m/s, about 3.5 s per pose change); the return to the seat has none (the
+    paper's Experiment 5 times no goal): a character sits down when it gets there."""
     from runtime.crowd.scenario import BOX_REACH
     boxes = fetch_boxes()
     chars = []
@@ -588,7 +588,15 @@ def fetch_scenario(seed: int = 0) -> dict:
         bstand = {b: np.array(boxes[b][:2]) + BOX_REACH * np.array([math.sin(math.radians(boxes[b][2])),
                                                                     math.cos(math.radians(boxes[b][2]))]) for b in bidx}
         door = np.array([10.0, FETCH_DOORS[cor]])
-        bidx.sort(key=lambda b: -float(np.hypot(*(bstand[b] - door))))          # farthest first
+        # a carrier turns round with its box on a loop about 2 m wide, over the neighbouring
+        # boxes' spots, and then walks back towards the door: the far wall's column (every
+        # other box, from the corridor's outer end) and the side wall's row (nearest the door
+        # first, so no one carries a box back past a spot still to be used) take turns, so
+        # the next character (FETCH_GAP later) goes to the other wall
+        row = sorted([b for b in bidx if boxes[b][2] != -90.0], key=lambda b: boxes[b][0])
+        col = sorted([b for b in bidx if boxes[b][2] == -90.0], key=lambda b: -abs(boxes[b][1] - boxes[row[0]][1]))
+        col = col[0::2] + col[1::2]
+        bidx = [b for pair in zip(col, row) for b in pair]
         # put-down spots off the door-to-box routes (which run at z 2.5-4.5 in the lower half),
         # the ones nearest the door first: a character walking back to the door then never
         # passes a spot still to be used, and one carrying a box never passes one in use
@@ -619,7 +627,10 @@ def fetch_scenario(seed: int = 0) -> dict:
     dur = max(t_last) + 3.0
     return {"name": "fetch_boxes20", "description": "Experiment 5 (paper 000, Figure 9): 20 seated characters "
             "fetch boxes, put them down at designated spots and return to their seats", "world": "world.usda",
-            "library": "default", "duration": float(math.ceil(dur)), "seed": seed, "character": chars}
+            "library": "default", "duration": float(math.ceil(dur)), "seed": seed,
+            # way points to a seat pass 1.2 m in front of it: a returner comes in square
+            # between its seated neighbours (1.6 m apart) instead of across their places
+            "synthesis": {"approach_point": 1.2}, "character": chars}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -750,20 +761,21 @@ solve cleanly (see docs/status.md).
     "theater40": _readme("theater40", "paper 000, Experiment 4 (Figure 8)", """
 40 characters start in a **lobby** and take **theater seats** (goal `seat = "/World/Seats/rB_sJ"`:
 position, heading and pose `sit` from the seat marker). `world.usda`: a hall (x -10..10,
-z -10..12) with a stage at -Z and 5 rows of 8 seats facing it (1.5 m between seats, 2.6 m
+z -10..12) with a stage at -Z and 5 rows of 8 seats facing it (1.5 m between seats, 3.2 m
 between rows, 4 m side aisles), a lobby (z 12..24) with a pillar and a counter, and two 3 m
 doors at x = -7.5 and 7.5 (the default library's walking cylinder is up to 1.26 m across, so
 spacings are about twice a real theater's). Chairs are the seat markers' own geometry, not
 obstacles; instead a 0.2 m row partition (the seat backs of the row in front) runs across the
 seat block between consecutive rows, behind the back row and in front of the front row, so a
-row is entered from the side aisles and its 1.5 m lane fits a walking character in front of
-the row's empty seats.
+row is entered from the side aisles and its 2.1 m lane fits a walking character in front of
+the row's empty seats with room to spare (at 2.6 m between rows the lane was 1.5 m, and the
+search's perturbed motions grazed the partitions).
 
 Each half of the lobby (4 x 5 characters, 2 m apart) fills one half of the seats through its
 own door: back row first, and in each half row the innermost seat first, so nobody has to pass
 close in front of a seated character (sitting characters are 0.62 m cylinders). Those nearest
-the door go first; the k-th seat of each half is reached in [18 + 3 k, 21 + 3 k] s (3 s apart: the one
-before has sat down by then, so two characters do not walk a row's lane together).
+the door go first; the k-th seat of each half is reached in [18 + 4 k, 22 + 4 k] s (4 s apart:
+the one before has sat down by then, so two characters do not walk a row's lane together).
 """, world=True),
     "fetch_boxes20": _readme("fetch_boxes20", "paper 000, Experiment 5 (Figure 9)", """
 20 characters start **seated** (`start = { seat = ... }`); each must pick up a designated box in

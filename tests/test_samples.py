@@ -299,3 +299,36 @@ def test_bad_synthesis_start_still(labels):
     assert "bad.toml" in str(e.value) and "start_still" in str(e.value)
     data["synthesis"]["start_still"] = True
     assert _parse(data, labels).synthesis["start_still"] is True
+
+
+@pytest.mark.parametrize("bad", ["far", -0.5, 9.0, True])
+def test_bad_synthesis_approach_point(labels, bad):
+    from runtime.crowd.scenario import ScenarioError
+    data = _scenario([_char("walker", [{"position": [3.0, 0.0]}])], synthesis={"approach_point": bad})
+    with pytest.raises(ScenarioError) as e:
+        _parse(data, labels)
+    assert "bad.toml" in str(e.value) and "approach_point" in str(e.value)
+    data["synthesis"]["approach_point"] = 1.2
+    assert _parse(data, labels).synthesis["approach_point"] == 1.2
+
+
+def test_bad_start_too_close_to_an_obstacle(labels):
+    """A start position nearer an obstacle than a standing character's cylinder overlaps it
+    from the first frame: a ScenarioError naming the character and the distance."""
+    from runtime.crowd.scenario import START_CLEARANCE, ScenarioError
+    from usd_io.world import read_world
+    env = read_world(SAMPLES / "rooms_box" / "world.usda")
+    inside = np.array([11.9, 4.6])                       # in the lower-middle room's sofa
+    # walk out of the sofa until just clear of it, then a little further
+    d = np.array([0.0, 1.0])
+    ts = np.linspace(0.0, 3.0, 3001)
+    dist = env.distance(inside[None] + ts[:, None] * d[None])
+    near = inside + ts[np.argmax(dist > 0.5 * START_CLEARANCE)] * d
+    far = inside + ts[np.argmax(dist > START_CLEARANCE + 0.05)] * d
+    data = _scenario([_char("walker", [{"position": [14.0, 2.0]}], start=tuple(near))])
+    with pytest.raises(ScenarioError) as e:
+        _parse(data, labels, env)
+    msg = str(e.value)
+    assert "'walker'" in msg and "start" in msg and "from an obstacle" in msg
+    data["character"][0]["start"]["position"] = far.tolist()
+    _parse(data, labels, env)

@@ -421,3 +421,83 @@ def test_a_seat_is_approached_from_in_front(default_graph):
 
     near, far = closest(1.2, sit), closest(0.0, sit)      # measured: 0.25 m and 0.74 m
     assert near < 0.35 and far > near + 0.3
+
+
+def test_pairs_static_clear_agrees_with_a_frame_by_frame_test(default_graph):
+    """The search's static pre-test of motion pairs (M_f[:i] placed at the start, M_b[j:] at the
+    goal, tested at the library's collision samples) against an independent test of every
+    frame of the same clips: it never flags a pair that is clear, and misses few."""
+    from runtime.crowd.synthesis import compose
+    g = default_graph
+    wall_x = 2.5
+    static = lambda xz: wall_x - np.asarray(xz)[:, 0]          # a wall filling x > 2.5
+    planner = SegmentPlanner(MotionLibrary(g), static=static)
+    rng = np.random.default_rng(5)
+    P, L = 150, 16
+    F = -np.ones((P, L), np.int64)
+    B = -np.ones((P, L), np.int64)
+    start_node = int(g.edge_src[0])
+    nf, nb = rng.integers(1, 14, P), rng.integers(1, 14, P)
+    for p in range(P):
+        F[p, :nf[p]] = g.random_walk(start_node, nf[p], rng)
+        B[p, L - nb[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nb[p], rng)
+    i = np.array([rng.integers(0, n + 1) for n in nf])
+    j = np.array([rng.integers(L - n, L + 1) for n in nb])
+    start, goal = np.array([0.0, 0.0, 0.3]), np.array([0.5, 6.0, 2.0])
+    got = planner.pairs_static_clear(F, B, i, j, start, goal)
+
+    def frames_clear(c, edges):
+        for e in edges:
+            a, b = g.edge_start[e], g.edge_start[e + 1]
+            local = np.stack([g.frame_xz[a:b, 0], g.frame_xz[a:b, 1], g.frame_heading[a:b]], axis=1)
+            w = compose(c[None], local)
+            if np.any(static(w[:, :2]) < g.frame_radius[a:b] + planner.p.margin):
+                return False
+            c = compose(c, planner.lib.disp[e])
+        return True
+
+    want = np.zeros(P, dtype=bool)
+    for p in range(P):
+        bpart = [int(e) for e in B[p, j[p]:] if e >= 0]
+        c = goal.copy()                        # M_b[j:] runs into the goal: place it backwards
+        for e in reversed(bpart):
+            d = planner.lib.disp[e]
+            h = c[2] - d[2]
+            c = np.array([c[0] - (np.cos(h) * d[0] + np.sin(h) * d[1]),
+                          c[1] - (-np.sin(h) * d[0] + np.cos(h) * d[1]), h])
+        want[p] = frames_clear(start.copy(), [int(e) for e in F[p, :i[p]]]) and frames_clear(c, bpart)
+    assert want.sum() > 10 and (~want).sum() > 10          # both kinds of pairs occur
+    assert (got & ~want).sum() <= 0.05 * P                 # misses few (between samples)
+    assert not np.any(~got & want)                          # never flags a clear pair
+
+
+def test_a_character_with_time_to_wait_starts_on_a_still_node(default_graph, monkeypatch):
+    """With ``start_still`` unset, a "stand" character whose first window opens long after it
+    could walk there is planned first from a node where it can stand and wait; one without
+    a window (or with a tight one) first from the walking hub. Setting the key overrides."""
+    import runtime.crowd.scheduler as sched
+    from runtime.crowd.scheduler import _start_node, still_nodes
+    g = default_graph
+    still = still_nodes(g, SynthesisParams().eps)
+    hub, stand = _start_node(g, "stand", "x"), _start_node(g, "stand", "x", still)
+    first = {}
+    real = sched._plan_character
+
+    def spy(*args):
+        first.setdefault(args[0].characters[args[11]].name, args[12])
+        return real(*args)
+
+    monkeypatch.setattr(sched, "_plan_character", spy)
+
+    def scenario(**syn):
+        chars = [{"name": name, "start": {"position": [3.0 * k, 0.0], "heading": 0.0, "pose": "stand"},
+                  "goal": [{"position": [3.0 * k, 4.0], **({"time": t} if t else {})}]}
+                 for k, (name, t) in enumerate([("waits", [12.0, 13.0]), ("free", None), ("tight", [3.2, 4.0])])]
+        return parse_scenario({"name": "w", "duration": 15.0, "seed": 0, "synthesis": {"passes": 1, **syn},
+                               "character": chars})
+
+    plan_scenario(scenario(), g)
+    assert first == {"waits": stand, "free": hub, "tight": hub}
+    first.clear()
+    plan_scenario(scenario(start_still=False), g)
+    assert first == {"waits": hub, "free": hub, "tight": hub}

@@ -31,6 +31,10 @@ PACK_VERSION = 1
 # Extra nodes tried (nearest first) when an end point sees no node within connect_distance.
 FALLBACK_NEIGHBOURS = 64
 SHORTCUT_EXTRA = 0.3      # m: straight and string-pulled segments keep radius + this clearance
+PUSH_STEP = 0.1           # m: steps of moving a way point away from an obstacle (Roadmap._push_off)
+PUSH_ITERS = 8            # ... at most this many per way point
+PUSH_EXTRA = 0.6          # ... towards radius + this clearance (or the ridge between two obstacles:
+                          # a 3 m door's middle); at 0.3 seeds still caught a door post turning in
 
 
 class RoadmapError(ValueError):
@@ -230,6 +234,39 @@ class Roadmap:
         pts = np.concatenate([s[None], self.nodes[path[1:-1]], g[None]])
         if shortcut and len(pts) > 2:
             pts = self._shortcut(env, pts, rs, rg)
+            pts = self._push_off(env, pts, rs, rg)
+        return pts
+
+    def _push_off(self, env: Environment, pts: np.ndarray, rs: float, rg: float) -> np.ndarray:
+        """Interior way points moved up the distance field's gradient, in steps of at most
+        ``PUSH_STEP``, until ``radius + PUSH_EXTRA`` from every obstacle (or no step helps).
+        String pulling leaves them on roadmap nodes at the corners it pulls round -- a door
+        post, a row's end -- often barely ``radius`` away; seeds aiming there graze the corner.
+        A step is kept only if both segments at the point keep the clearance rules of
+        :meth:`waypoints`."""
+        pts = np.array(pts, dtype=np.float64)
+        n = len(pts)
+        target = self.radius + PUSH_EXTRA
+        h = 0.02
+        for k in range(1, n - 1):
+            for _ in range(PUSH_ITERS):
+                p = pts[k]
+                d = float(env.distance(p[None])[0])
+                if d >= target:
+                    break
+                probe = p[None] + np.array([[h, 0.0], [-h, 0.0], [0.0, h], [0.0, -h]])
+                dd = env.distance(probe)
+                grad = np.array([dd[0] - dd[1], dd[2] - dd[3]]) / (2 * h)
+                gn = float(np.hypot(*grad))
+                if not np.isfinite(gn) or gn < 1e-6:
+                    break
+                q = p + min(PUSH_STEP, target - d) * grad / gn
+                r0 = min(self.radius, rs) if k == 1 else self.radius
+                r1 = min(self.radius, rg) if k == n - 2 else self.radius
+                if not (env.distance(q[None])[0] > d and
+                        env.segment_clear(pts[k - 1], q, r0) and env.segment_clear(q, pts[k + 1], r1)):
+                    break
+                pts[k] = q
         return pts
 
     def _shortcut(self, env: Environment, pts: np.ndarray, rs: float, rg: float) -> np.ndarray:

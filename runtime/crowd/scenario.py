@@ -9,7 +9,9 @@ seed = 0
 [synthesis]                 # optional, paper defaults
 epsilon = [0.02, 2.0, 0.0667]
 passes = 3                  # planning passes: characters left without a clean plan go first next time
-start_still = false         # true: "stand" starts on a still node (characters can wait before leaving)
+start_still = false         # true: "stand" starts on a still node first, false: on a walking hub first;
+                            # unset: still first for characters whose first window leaves time to wait
+approach_point = 0.0        # m: way points to a seat pass this far in front of it first (0: off)
 [[character]]
 name = "c01"
 start = { position = [0.0, 0.0], heading = 0.0, pose = "stand" }   # or seat = "/World/Seats/s01"
@@ -40,6 +42,8 @@ __all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "FlockSpec"
            "planning_order", "BOX_REACH"]
 
 # Distance from a box marker to the root of a character standing at it, facing it (m).
+START_CLEARANCE = 0.3    # m from obstacles a start position needs (the default library's standing
+                         # idle cylinder is 0.27 m; seat starts, being markers, are exempt)
 BOX_REACH = 0.45
 # Fastest the default library moves (m/s); used to reject windows too short for any motion.
 MAX_SPEED = 2.0
@@ -221,6 +225,9 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
         raise ScenarioError(f"{path}: synthesis.epsilon must be three positive numbers")
     if not isinstance(syn.get("start_still", False), bool):
         raise ScenarioError(f"{path}: synthesis.start_still must be true or false")
+    ap = syn.get("approach_point", 0.0)
+    if isinstance(ap, bool) or not isinstance(ap, (int, float)) or not 0.0 <= float(ap) <= 5.0:
+        raise ScenarioError(f"{path}: synthesis.approach_point must be a distance in metres from 0 to 5")
     markers = env.markers if env is not None else {}
     chars = []
     names = set()
@@ -384,8 +391,14 @@ def validate(sc: Scenario, env=None, node_labels=None) -> None:
         if node_labels is not None and c.pose not in node_labels:
             raise ScenarioError(f"{sc.path}: character {c.name!r} start: pose {c.pose!r} is not in the library "
                                 f"(it has {sorted(node_labels)})")
-        if env is not None and c.start_marker is None and env.distance(c.position[None])[0] < 0:
-            raise ScenarioError(f"{sc.path}: character {c.name!r} start position {c.position.tolist()} is inside an obstacle")
+        if env is not None and c.start_marker is None:
+            d0 = float(env.distance(c.position[None])[0])
+            if d0 < 0:
+                raise ScenarioError(f"{sc.path}: character {c.name!r} start position {c.position.tolist()} is inside an obstacle")
+            if d0 < START_CLEARANCE:
+                raise ScenarioError(f"{sc.path}: character {c.name!r} start position {c.position.tolist()} is "
+                                    f"{d0:.2f} m from an obstacle: a standing character needs {START_CLEARANCE} m "
+                                    f"(it would overlap the obstacle from the first frame)")
         prev_pos, prev_t = c.position, 0.0
         for gi, g in enumerate(c.goals):
             gw = f"{sc.path}: character {c.name!r} goal {gi}"

@@ -158,6 +158,8 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
             setattr(params, k, int(sc.synthesis[k]))
     if "start_still" in sc.synthesis:
         params.start_still = bool(sc.synthesis["start_still"])
+    if "approach_point" in sc.synthesis:
+        params.approach_point = float(sc.synthesis["approach_point"])
     lib = MotionLibrary(graph, params)
     fps = params.fps
     n_total = int(round(sc.duration * fps)) + 1
@@ -222,14 +224,16 @@ def _plan_one(ctx: _Context, results, ci: int, k: int, attempt: int = 0) -> Char
 
     A character whose start pose has two kinds of node -- the pose's most connected node and
     one where it can stand still and wait (for "stand": a walking hub and a standing node) --
-    is planned from the first (``start_still``: the second); if that plan has warnings, it is
+    is planned from the first (``start_still``: the second; unset: the second when the
+    character has time to wait, :func:`_time_to_wait`); if that plan has warnings, it is
     planned again from the other, and the plan with fewer warnings is kept."""
     sc, graph, params = ctx.sc, ctx.graph, ctx.params
     c = sc.characters[ci]
     t0 = time.perf_counter()
     where = f"{sc.path}: character {c.name!r} start"
-    starts = list(dict.fromkeys([_start_node(graph, c.pose, where, ctx.still if params.start_still else None),
-                                 _start_node(graph, c.pose, where, None if params.start_still else ctx.still)]))
+    still_first = params.start_still if params.start_still is not None else _time_to_wait(c, params)
+    starts = list(dict.fromkeys([_start_node(graph, c.pose, where, ctx.still if still_first else None),
+                                 _start_node(graph, c.pose, where, None if still_first else ctx.still)]))
     best = None
     iters = 0
     for a, node in enumerate(starts):
@@ -252,6 +256,20 @@ def _plan_one(ctx: _Context, results, ci: int, k: int, attempt: int = 0) -> Char
             ctx.log(f"warning: {w}")
     return CharacterResult(c.name, track, arrivals, goals, warnings, time.perf_counter() - t0, iters,
                            arrivals[-1] / ctx.fps if arrivals else 0.0)
+
+
+WALK_SPEED = 1.4    # m/s: a brisk walk, for telling whether a character has time to wait
+
+
+def _time_to_wait(c, params) -> bool:
+    """Whether character ``c``'s first goal has a window that opens more than
+    ``params.wait_slack`` seconds after it could walk there in a straight line: it then waits
+    at its start first (``start_still`` None), where it already stands, rather than walking
+    off and stopping somewhere in the others' way."""
+    if not c.goals or c.goals[0].time is None or c.goals[0].position is None:
+        return False
+    d = float(np.hypot(*(np.asarray(c.goals[0].position, float) - np.asarray(c.position, float))))
+    return c.goals[0].time[0] - d / WALK_SPEED > params.wait_slack
 
 
 def _repair(ctx: _Context, results: dict, failed: list, k: int) -> None:

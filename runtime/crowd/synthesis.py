@@ -70,6 +70,9 @@ def compose_inverse(c_end, d):
     return np.stack([x, z, h], axis=-1)
 
 
+MAX_IDLE_EDGES = 400     # idle clips a seed may spend waiting (~15 min of the default library's)
+
+
 @dataclass
 class SynthesisParams:
     n_m: int = 200                 # perturbed pairs per iteration
@@ -95,6 +98,9 @@ class SynthesisParams:
     backward_idle: bool = False    # backward seeds may idle at the goal to spend surplus time (the World allows it)
     carrot: float = 1.5            # seeds aim this far (m) along the way-point path ahead of themselves
     carrot_final: float = 3.0      # ... until the path's end is this close (m): then at the end itself
+    static_filter: float = 4.0     # pairs costing under this x eps are tested against static obstacles
+                                   # before they may join the population (0: off)
+    reseed_after: int = 20         # iterations after which a search whose splices collide makes new seeds
     retime_budget: int = 40        # colliding splices per search tried again at other durations
     retime_tries: int = 12         # durations tried per colliding splice (nearest first)
     retime_step: int = 3           # frames between those durations
@@ -103,9 +109,15 @@ class SynthesisParams:
                                    # helped fetch_boxes20 a little and cost the plaza its pass)
     stop_to_wait: bool = True      # a timed seed blocked at a walking hub stops on a node with idle clips to wait
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
-    start_still: bool = False      # characters start on a node of their pose where they can stand still
-                                   # and wait (scheduler; the World always does). Off: the pose's most
-                                   # connected node, which for "stand" is a walking hub (see docs/status.md)
+    start_still: bool | None = None  # characters start on a node of their pose where they can stand still
+                                   # and wait (scheduler; the World always does). False: the pose's most
+                                   # connected node, which for "stand" is a walking hub (see docs/status.md).
+                                   # None: per character, still first when its first goal's window
+                                   # opens more than ``wait_slack`` s after it could walk there
+    wait_slack: float = 3.0        # s (see start_still)
+    static_prefer: float = 0.12    # m of clearance from static obstacles a seed keeps when it can (edges
+                                   # that keep it come first; the splice's displacement maps shift the
+                                   # motion by a few cm, and seeds hugging a door post collided there)
     end_clearance: float = 0.65    # m from static obstacles a seed's edge must end (away from the goal),
                                    # so it can walk on (a walking cylinder is up to 0.63 m); 0: off
     fps: float = 30.0
@@ -312,11 +324,16 @@ class SegmentPlanner:
 
     def _clear(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool) -> np.ndarray:
         """Which candidate edge placements are collision-free (vectorized over candidates)."""
+        return self._clear2(edges, cfgs, frames0, moving)[0]
+
+    def _clear2(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool):
+        """(collision-free, and also ``static_prefer`` further from static obstacles) per
+        candidate edge placement (vectorized over candidates)."""
         lib = self.lib
         n = len(edges)
         ok = np.ones(n, dtype=bool)
         if n == 0 or (self.static is None and (self.collide is None or not moving)):
-            return ok
+            return ok, ok.copy()
         cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
         which = np.repeat(np.arange(n), cnt)
         sidx = np.concatenate([np.arange(lib.samp_ptr[e], lib.samp_ptr[e + 1]) for e in edges])
@@ -325,16 +342,22 @@ class SegmentPlanner:
         world = compose(cfgs[which], local)
         rad = self.g.frame_radius[gf].astype(np.float64) + self.p.margin
         bad = np.zeros(len(gf), dtype=bool)
+        near = bad
         if self.static is not None:
             # samples are every few frames: keep the distance a character covers between two
             # samples from obstacles too, or a seed that grazes one fails the per-frame test
-            bad |= self.static(world[:, :2]) < rad + self.p.static_seed_margin
+            d = self.static(world[:, :2])
+            bad |= d < rad + self.p.static_seed_margin
+            near = d < rad + self.p.static_seed_margin + self.p.static_prefer
         if moving and self.collide is not None:
             # seeds keep a wider berth from moving characters: the splice later shifts the
             # motion in space (displacement maps) and in time (resampling)
             bad |= self.collide(frames0[which] + lib.samp_off[sidx], world[:, :2], rad + self.p.seed_margin)
-        ok &= ~np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(cnt)[:-1]])) if len(bad) else ok
-        return ok
+        if not len(bad):
+            return ok, ok.copy()
+        starts = np.concatenate([[0], np.cumsum(cnt)[:-1]])
+        ok &= ~np.logical_or.reduceat(bad, starts)
+        return ok, ok & ~np.logical_or.reduceat(near, starts)
 
     def _bfs_dist(self, targets: np.ndarray, allowed: np.ndarray, reverse: bool) -> np.ndarray:
         """Fewest edges from every node to any of ``targets`` (edges masked by ``allowed``)."""
@@ -402,8 +425,25 @@ class SegmentPlanner:
             frame += t_sign * int(lib.nframes[e] - 1)
             elapsed += float(lib.dur[e])
 
+        idled = 0               # idle clips spent waiting (not counted against max_seed_edges)
         # prefix: leave the start state for the travel state by the fewest edges
         if g.node_state[node] != travel:
+            if not reverse and time_budget is not None:
+                # with time to spare, wait where the character stands (a still start node's
+                # idle clips) before it leaves its state: the time left over after the
+                # prefix would otherwise be idled wherever the prefix ended, a step away --
+                # in a doorway, say
+                loops = np.flatnonzero((src == node) & (dst == node) & (np.hypot(disp[:, 0], disp[:, 1]) < 0.1))
+                if len(loops):
+                    loop = int(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
+                    tnodes = np.flatnonzero(g.node_state == travel)
+                    path_len = float(np.hypot(*np.diff(waypoints, axis=0).T).sum()) if len(waypoints) > 1 else 0.0
+                    need = lib.change_time([node], tnodes) + reserve + path_len / 1.1
+                    need = need if np.isfinite(need) else time_budget
+                    while time_budget - elapsed - need > lib.dur[loop] + 0.5 and idled < MAX_IDLE_EDGES:
+                        advance(loop)
+                        idled += 1
+                    yield
             tnodes = np.flatnonzero(g.node_state == travel)
             dist = self._bfs_dist(tnodes, np.ones(g.num_edges, bool), reverse)
             yield
@@ -488,10 +528,14 @@ class SegmentPlanner:
 
         def clear_here(es, moving):
             """Which edges from the current configuration and frame are collision-free."""
+            return clear_both(es, moving)[0]
+
+        def clear_both(es, moving):
+            """(collision-free, and also ``static_prefer`` clear of static obstacles)."""
             es = np.asarray(es, dtype=np.int64)
-            return self._clear(es, np.repeat(cfg[None], len(es), 0),
-                               np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
-                               moving=moving)
+            return self._clear2(es, np.repeat(cfg[None], len(es), 0),
+                                np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
+                                moving=moving)
         goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
         home_xz = np.asarray(start_cfg[:2], dtype=np.float64)
         room = self.p.end_clearance
@@ -509,8 +553,15 @@ class SegmentPlanner:
             return near | (self.static(ends) >= room)
 
         def first_ok(cand):
-            """The first of ``cand`` that is clear and leaves room to walk on, or None."""
-            ok = clear_here(cand, timed) & roomy(cand)
+            """The first of ``cand`` that is clear and leaves room to walk on -- the first
+            that also keeps ``static_prefer`` from static obstacles if any does -- or None."""
+            cand = np.asarray(cand, dtype=np.int64)
+            ok, roomier = clear_both(cand, timed)
+            room_ok = roomy(cand)
+            ok &= room_ok
+            roomier &= room_ok
+            if roomier.any():
+                return int(cand[np.argmax(roomier)])
             return int(cand[np.argmax(ok)]) if ok.any() else None
 
         table = lib.lookahead(reverse, travel)
@@ -520,7 +571,7 @@ class SegmentPlanner:
         idle_node = np.zeros(g.num_nodes, dtype=bool)
         idle_node[src[still_loop]] = True
         turn_rate = float(np.max(np.abs(disp[in_travel, 2]) / lib.dur[in_travel])) if in_travel.any() else 1.0
-        while len(edges) < self.p.max_seed_edges:
+        while len(edges) - idled < self.p.max_seed_edges:
             final = place_carrot()
             out, comb, dur2 = table[node]
             if len(out) == 0:
@@ -550,8 +601,10 @@ class SegmentPlanner:
                 # already stands: a forward seed idles first; a backward seed (which runs back
                 # from the goal) never idles, or the motion would stand at the goal early, in
                 # the way of characters passing before the window opens
-                if (not reverse or self.p.backward_idle) and len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5:
+                if (not reverse or self.p.backward_idle) and len(loops) and left - remaining / 1.1 > lib.dur[loops].min() + 0.5 \
+                        and idled < MAX_IDLE_EDGES:
                     advance(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
+                    idled += 1
                     continue
                 want = remaining / max(left, 0.3)
                 pos_now = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1]))
@@ -570,10 +623,8 @@ class SegmentPlanner:
             pick = None
             if len(order):
                 cand = out[order[:12]]
-                ok = clear_here(cand, timed) & roomy(cand)
-                if ok.any():
-                    pick = cand[np.argmax(ok)]
-                elif waits < self.p.max_waits and self.collide is not None and timed and \
+                pick = first_ok(cand)
+                if pick is None and waits < self.p.max_waits and self.collide is not None and timed and \
                         clear_here(cand, False).any():
                     # every improving edge runs into someone already planned (at least one is
                     # clear of the static obstacles: waiting cannot move a wall): wait for them
@@ -752,6 +803,50 @@ class SegmentPlanner:
         bi[pp[first]] = ii[first]
         bj[pp[first]] = jj[first]
         return best, bi, bj
+
+    def pairs_static_clear(self, F, B, i, j, start, goal) -> np.ndarray:
+        """Per pair: whether its two unspliced parts -- M_f[:i] placed at the start and
+        M_b[j:] placed at the goal -- clear the static obstacles at the library's collision
+        samples (bounding cylinder + ``margin``). A pair that fails cannot pass the final
+        test once spliced (the displacement maps move it a few cm at most), so the search
+        drops it before splicing, instead of converging on motions that cut a corner.
+        F, B as in :meth:`pair_costs` (rows of the pairs to test)."""
+        lib, g = self.lib, self.g
+        P = len(F)
+        if self.static is None or P == 0:
+            return np.ones(P, dtype=bool)
+        Lf, Lb = F.shape[1], B.shape[1]
+        fv, bv = F >= 0, B >= 0
+        dF = np.where(fv[..., None], lib.disp[np.where(fv, F, 0)], 0.0)
+        hF = start[2] + np.concatenate([np.zeros((P, 1)), np.cumsum(dF[..., 2], axis=1)], axis=1)[:, :-1]
+        c, s = np.cos(hF), np.sin(hF)
+        xF = start[0] + np.concatenate([np.zeros((P, 1)), np.cumsum(c * dF[..., 0] + s * dF[..., 1], axis=1)], axis=1)[:, :-1]
+        zF = start[1] + np.concatenate([np.zeros((P, 1)), np.cumsum(-s * dF[..., 0] + c * dF[..., 1], axis=1)], axis=1)[:, :-1]
+        dB = np.where(bv[..., None], lib.disp[np.where(bv, B, 0)], 0.0)
+        hB = goal[2] - np.cumsum(dB[:, ::-1, 2], axis=1)[:, ::-1]
+        c, s = np.cos(hB), np.sin(hB)
+        xB = goal[0] - np.cumsum((c * dB[..., 0] + s * dB[..., 1])[:, ::-1], axis=1)[:, ::-1]
+        zB = goal[1] - np.cumsum((-s * dB[..., 0] + c * dB[..., 1])[:, ::-1], axis=1)[:, ::-1]
+        # the edges in use, with the configuration each starts from
+        useF = fv & (np.arange(Lf)[None, :] < np.asarray(i)[:, None])
+        useB = bv & (np.arange(Lb)[None, :] >= np.asarray(j)[:, None])
+        rF, cF = np.nonzero(useF)
+        rB, cB = np.nonzero(useB)
+        row = np.concatenate([rF, rB])
+        e = np.concatenate([F[rF, cF], B[rB, cB]])
+        base = np.stack([np.concatenate([xF[rF, cF], xB[rB, cB]]), np.concatenate([zF[rF, cF], zB[rB, cB]]),
+                         np.concatenate([hF[rF, cF], hB[rB, cB]])], axis=1)
+        if len(e) == 0:
+            return np.ones(P, dtype=bool)
+        cnt = lib.samp_ptr[e + 1] - lib.samp_ptr[e]
+        which = np.repeat(np.arange(len(e)), cnt)
+        first = np.concatenate([[0], np.cumsum(cnt)[:-1]])
+        sidx = lib.samp_ptr[e][which] + (np.arange(int(cnt.sum())) - np.repeat(first, cnt))
+        gf = lib.samp_frame[sidx]
+        local = np.stack([g.frame_xz[gf, 0], g.frame_xz[gf, 1], g.frame_heading[gf]], axis=1)
+        world = compose(base[which], local)
+        bad = self.static(world[:, :2]) < g.frame_radius[gf].astype(np.float64) + self.p.margin
+        return np.bincount(row[which], weights=bad, minlength=P) == 0
 
     def _goal_node_col(self, P):
         return np.full((P, 1), self._goal_node)
@@ -993,27 +1088,41 @@ class SegmentPlanner:
                     Fn[P - k:], Bn[P - k:], nfn[P - k:], nbn[P - k:] = Fs, Bs, nfp[0], nbp[0]
                 yield       # the sweep and the costing are separate steps (time slicing)
             cn, inn, jn = self.pair_costs(Fn, nfn, Bn, nbn, start.xzh, goal_cfg, window_rel)
-            order = np.argsort(cn, kind="stable")
-            for r in order[:p.splices_per_iteration]:
-                if not (cn[r] <= eps_p):
+            if p.static_filter and self.static is not None:
+                # pairs near acceptance whose parts hit a static obstacle leave the population
+                near = np.flatnonzero(cn <= p.static_filter * eps_p)
+                if len(near):
+                    okn = self.pairs_static_clear(Fn[near], Bn[near], inn[near], jn[near], start.xzh, goal_cfg)
+                    cn[near[~okn]] = np.inf
+            allc = np.concatenate([costp, cn])
+            Fa, Ba = np.concatenate([Fp, Fn]), np.concatenate([Bp, Bn])
+            nfa, nba = np.concatenate([nfp, nfn]), np.concatenate([nbp, nbn])
+            ia, ja = np.concatenate([ip, inn]), np.concatenate([jp, jn])
+            order = np.argsort(allc, kind="stable")
+            if allc[order[0]] < best[0]:
+                r = order[0]
+                best = (float(allc[r]), Fa[r].copy(), nfa[r], Ba[r].copy(), nba[r], int(ia[r]), int(ja[r]))
+            # splice and test the best pairs below eps, old or new; a pair the final test
+            # rejects (or whose splice is not within eps after all) leaves the population, so
+            # the search goes on from the others instead of perturbing a colliding motion
+            tried = 0
+            for r in order:
+                if tried >= p.splices_per_iteration or not (allc[r] <= eps_p):
                     break
+                if (tuple(Fa[r][:ia[r]]), tuple(Ba[r][ja[r]:][Ba[r][ja[r]:] >= 0])) in rejected:
+                    allc[r] = np.inf
+                    continue
+                tried += 1
                 yield   # each splice + collision test is its own step (time slicing)
-                res = try_accept(cn[r], Fn[r], inn[r], Bn[r], jn[r])
+                res = try_accept(allc[r], Fa[r], ia[r], Ba[r], ja[r])
                 if res is not None:
                     return res, iterations, best, None
+                allc[r] = np.inf
             # keep the k_m best of old and new
-            allc = np.concatenate([costp, cn])
             keep = np.argsort(allc, kind="stable")[:p.k_m]
-            Fp = np.concatenate([Fp, Fn])[keep]
-            Bp = np.concatenate([Bp, Bn])[keep]
-            nfp = np.concatenate([nfp, nfn])[keep]
-            nbp = np.concatenate([nbp, nbn])[keep]
-            ip = np.concatenate([ip, inn])[keep]
-            jp = np.concatenate([jp, jn])[keep]
+            Fp, Bp, nfp, nbp, ip, jp = Fa[keep], Ba[keep], nfa[keep], nba[keep], ia[keep], ja[keep]
             costp = allc[keep]
-            if costp[0] < best[0]:
-                best = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
-            if collision_at is not None and iterations >= 20 and costp[0] <= eps_p:
+            if collision_at is not None and iterations >= p.reseed_after:
                 # below eps but colliding for a while: better seeds are needed
                 break
             yield
