@@ -84,7 +84,7 @@ def scenario():
     lines = ['name = "plaza"',
              'description = "The product at a glance: people walk to benches and sit, meet in pairs, fetch boxes from '
              'a kiosk; two teams meet and greet in a tiled interaction zone; birds flock overhead"',
-             'world = "world.usda"', 'library = "default"', 'duration = 40.0', 'seed = 0', '']
+             'world = "world.usda"', 'library = "default"', 'duration = 45.0', 'seed = 0', '']
 
     def char(name, x, z, h, goals):
         lines.append("[[character]]")
@@ -97,10 +97,11 @@ def scenario():
         lines.append("")
 
     # sitters come in from the edges
+    # (benches 1-6: none comes from the north-east, where the box movers start)
     for i in range(6):
-        a = 2 * math.pi * (i + 0.5) / 8
+        a = 2 * math.pi * (i + 1.5) / 8
         x, z = 13.0 * math.sin(a + 0.4), 13.0 * math.cos(a + 0.4)      # clear of the planters and the kiosk
-        char(f"sitter{i}", x, z, math.degrees(a) + 180, [{"seat": f'"/World/Seats/s{i:02d}"'}])
+        char(f"sitter{i}", x, z, math.degrees(a) + 180, [{"seat": f'"/World/Seats/s{i + 1:02d}"'}])
     # two pairs meet, face to face, at the same moment
     for k, (cx, cz) in enumerate([(-5.0, 0.0), (0.0, -6.0)]):
         for s in (-1, 1):
@@ -112,7 +113,7 @@ def scenario():
                  [{"position": f"[{gx:.2f}, {gz:.2f}]", "heading": f"{h:.1f}", "pose": '"stand"', "time": "[16.0, 16.5]"}])
     # box movers: pick a box at the kiosk, put it down by the benches
     for i in range(3):
-        char(f"mover{i}", 4.0 + 1.5 * i, 9.0, 180.0,
+        char(f"mover{i}", 4.0 + 1.5 * i, 10.5, 180.0,     # 1.5 m clear of planter3 (at 9.0 mover2 faced it 0.8 m away)
              [{"box": f'"/World/Boxes/b{i}"'},
               {"position": f"[{-2.0 + 2.0 * i:.2f}, 9.5]", "heading": "0.0", "pose": '"stand"'}])
     # the tiled interaction zone: two teams of four swap ends and meet in the middle
