@@ -726,6 +726,32 @@ class SegmentPlanner:
             advance(pick)
             yield
 
+    def _forward_configs(self, F: np.ndarray, start: np.ndarray):
+        """(x, z, heading), each (P, Lf + 1): configurations at the nodes of left-aligned
+        forward motions F (padded -1) placed at ``start``."""
+        P = len(F)
+        fv = F >= 0
+        dF = np.where(fv[..., None], self.lib.disp[np.where(fv, F, 0)], 0.0)
+        h = start[2] + np.concatenate([np.zeros((P, 1)), np.cumsum(dF[..., 2], axis=1)], axis=1)
+        c, s = np.cos(h[:, :-1]), np.sin(h[:, :-1])
+        x = start[0] + np.concatenate([np.zeros((P, 1)), np.cumsum(c * dF[..., 0] + s * dF[..., 1], axis=1)], axis=1)
+        z = start[1] + np.concatenate([np.zeros((P, 1)), np.cumsum(-s * dF[..., 0] + c * dF[..., 1], axis=1)], axis=1)
+        return x, z, h
+
+    def _backward_configs(self, B: np.ndarray, goal: np.ndarray):
+        """(x, z, heading), each (P, Lb + 1): configurations at the node positions of
+        right-aligned motions B (walking order, padded -1) that end at ``goal`` (position Lb)."""
+        P = len(B)
+        bv = B >= 0
+        dB = np.where(bv[..., None], self.lib.disp[np.where(bv, B, 0)], 0.0)
+        h = goal[2] - np.concatenate([np.cumsum(dB[:, ::-1, 2], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
+        c, s = np.cos(h[:, :-1]), np.sin(h[:, :-1])
+        x = goal[0] - np.concatenate([np.cumsum((c * dB[..., 0] + s * dB[..., 1])[:, ::-1], axis=1)[:, ::-1],
+                                      np.zeros((P, 1))], axis=1)
+        z = goal[1] - np.concatenate([np.cumsum((-s * dB[..., 0] + c * dB[..., 1])[:, ::-1], axis=1)[:, ::-1],
+                                      np.zeros((P, 1))], axis=1)
+        return x, z, h
+
     # -- cost (Eq. 1, 2), vectorized over pairs ---------------------------------------------------
     def pair_costs(self, F: np.ndarray, nf: np.ndarray, B: np.ndarray, nb: np.ndarray,
                    start: np.ndarray, goal: np.ndarray, window_rel):
@@ -748,25 +774,13 @@ class SegmentPlanner:
         bv = B >= 0
         Fe = np.where(fv, F, 0)
         Be = np.where(bv, B, 0)
-        # forward configurations at nodes 0..Lf
-        dF = np.where(fv[..., None], lib.disp[Fe], 0.0)
-        hF = start[2] + np.concatenate([np.zeros((P, 1)), np.cumsum(dF[..., 2], axis=1)], axis=1)
-        c, s = np.cos(hF[:, :-1]), np.sin(hF[:, :-1])
-        stepx = c * dF[..., 0] + s * dF[..., 1]
-        stepz = -s * dF[..., 0] + c * dF[..., 1]
-        xF = start[0] + np.concatenate([np.zeros((P, 1)), np.cumsum(stepx, axis=1)], axis=1)
-        zF = start[1] + np.concatenate([np.zeros((P, 1)), np.cumsum(stepz, axis=1)], axis=1)
+        # forward configurations at nodes 0..Lf; backward ones at node positions 0..Lb
+        # (position Lb = goal), right-aligned
+        xF, zF, hF = self._forward_configs(F, start)
+        xB, zB, hB = self._backward_configs(B, goal)
         tF = np.concatenate([np.zeros((P, 1)), np.cumsum(np.where(fv, lib.dur[Fe], 0.0), axis=1)], axis=1)
         nodeF = np.concatenate([np.full((P, 1), -2), np.where(fv, g.edge_dst[Fe], -3)], axis=1)
         nodeF[:, 0] = self._start_node
-        # backward configurations at node positions 0..Lb (position Lb = goal), right-aligned
-        dB = np.where(bv[..., None], lib.disp[Be], 0.0)
-        hB = goal[2] - np.concatenate([np.cumsum(dB[:, ::-1, 2], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
-        c, s = np.cos(hB[:, :-1]), np.sin(hB[:, :-1])
-        stepx = c * dB[..., 0] + s * dB[..., 1]
-        stepz = -s * dB[..., 0] + c * dB[..., 1]
-        xB = goal[0] - np.concatenate([np.cumsum(stepx[:, ::-1], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
-        zB = goal[1] - np.concatenate([np.cumsum(stepz[:, ::-1], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
         tB = np.concatenate([np.cumsum(np.where(bv, lib.dur[Be], 0.0)[:, ::-1], axis=1)[:, ::-1], np.zeros((P, 1))], axis=1)
         nodeB = np.concatenate([np.where(bv, g.edge_src[Be], -4), self._goal_node_col(P)], axis=1)
         validF = np.arange(Lf + 1)[None, :] <= nf[:, None]
@@ -819,16 +833,9 @@ class SegmentPlanner:
             return np.ones(P, dtype=bool)
         Lf, Lb = F.shape[1], B.shape[1]
         fv, bv = F >= 0, B >= 0
-        dF = np.where(fv[..., None], lib.disp[np.where(fv, F, 0)], 0.0)
-        hF = start[2] + np.concatenate([np.zeros((P, 1)), np.cumsum(dF[..., 2], axis=1)], axis=1)[:, :-1]
-        c, s = np.cos(hF), np.sin(hF)
-        xF = start[0] + np.concatenate([np.zeros((P, 1)), np.cumsum(c * dF[..., 0] + s * dF[..., 1], axis=1)], axis=1)[:, :-1]
-        zF = start[1] + np.concatenate([np.zeros((P, 1)), np.cumsum(-s * dF[..., 0] + c * dF[..., 1], axis=1)], axis=1)[:, :-1]
-        dB = np.where(bv[..., None], lib.disp[np.where(bv, B, 0)], 0.0)
-        hB = goal[2] - np.cumsum(dB[:, ::-1, 2], axis=1)[:, ::-1]
-        c, s = np.cos(hB), np.sin(hB)
-        xB = goal[0] - np.cumsum((c * dB[..., 0] + s * dB[..., 1])[:, ::-1], axis=1)[:, ::-1]
-        zB = goal[1] - np.cumsum((-s * dB[..., 0] + c * dB[..., 1])[:, ::-1], axis=1)[:, ::-1]
+        # the configuration each edge starts from
+        xF, zF, hF = (a[:, :-1] for a in self._forward_configs(F, start))
+        xB, zB, hB = (a[:, :-1] for a in self._backward_configs(B, goal))
         # the edges in use, with the configuration each starts from
         useF = fv & (np.arange(Lf)[None, :] < np.asarray(i)[:, None])
         useB = bv & (np.arange(Lb)[None, :] >= np.asarray(j)[:, None])
