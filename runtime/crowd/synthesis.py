@@ -323,11 +323,7 @@ class SegmentPlanner:
             return carrying
         return walking
 
-    def _clear(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool) -> np.ndarray:
-        """Which candidate edge placements are collision-free (vectorized over candidates)."""
-        return self._clear2(edges, cfgs, frames0, moving)[0]
-
-    def _clear2(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool):
+    def _clear(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool):
         """(collision-free, and also ``static_prefer`` further from static obstacles) per
         candidate edge placement (vectorized over candidates)."""
         lib = self.lib
@@ -429,6 +425,7 @@ class SegmentPlanner:
         idled = 0               # idle clips spent waiting (not counted against max_seed_edges)
         # prefix: leave the start state for the travel state by the fewest edges
         if g.node_state[node] != travel:
+            tnodes = np.flatnonzero(g.node_state == travel)
             if not reverse and time_budget is not None:
                 # with time to spare, wait where the character stands (a still start node's
                 # idle clips) before it leaves its state: the time left over after the
@@ -437,7 +434,6 @@ class SegmentPlanner:
                 loops = np.flatnonzero((src == node) & (dst == node) & (np.hypot(disp[:, 0], disp[:, 1]) < 0.1))
                 if len(loops):
                     loop = int(loops[np.argmin(np.hypot(disp[loops, 0], disp[loops, 1]))])
-                    tnodes = np.flatnonzero(g.node_state == travel)
                     path_len = float(np.hypot(*np.diff(waypoints, axis=0).T).sum()) if len(waypoints) > 1 else 0.0
                     need = lib.change_time([node], tnodes) + reserve + path_len / 1.1
                     need = need if np.isfinite(need) else time_budget
@@ -445,7 +441,6 @@ class SegmentPlanner:
                         advance(loop)
                         idled += 1
                     yield
-            tnodes = np.flatnonzero(g.node_state == travel)
             dist = self._bfs_dist(tnodes, np.ones(g.num_edges, bool), reverse)
             yield
             yield from self._fewest_path(node, dist, advance, lambda: node, lambda: cfg,
@@ -534,7 +529,7 @@ class SegmentPlanner:
         def clear_both(es, moving):
             """(collision-free, and also ``static_prefer`` clear of static obstacles)."""
             es = np.asarray(es, dtype=np.int64)
-            return self._clear2(es, np.repeat(cfg[None], len(es), 0),
+            return self._clear(es, np.repeat(cfg[None], len(es), 0),
                                 np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
                                 moving=moving)
         goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
@@ -1116,7 +1111,7 @@ class SegmentPlanner:
             # in the population: dropping it, and splicing the best untried old pairs as well,
             # was measured 1.5-2x slower on grid300 and no better on theater40)
             K0 = len(costp)
-            for r in order[order >= K0][:p.splices_per_iteration]:
+            for r in K0 + np.argsort(cn, kind="stable")[:p.splices_per_iteration]:
                 if not (allc[r] <= eps_p):
                     break
                 yield   # each splice + collision test is its own step (time slicing)
