@@ -40,14 +40,20 @@ def test_matches_brute_force_through_removals_and_merges():
         ign = int(rng.integers(0, 12))
         np.testing.assert_array_equal(idx.overlaps(qf, qp, qr, margin=0.02, ignore_owner=ign),
                                       brute(stored, qf, qp, qr, 0.02, ign))
-    assert len(idx._runs) <= 2 + int(np.log2(max(idx.count, 2)))   # merged like a binary counter
+    # compactions keep the stored rows within twice the live ones plus the last batch
+    live = sum(len(f) for f, _, _ in stored.values())
+    assert idx.count <= max(SpaceTimeIndex.MIN_CAPACITY, 2 * live + 80)
+    assert len(idx._head) >= 2 * len(idx._keys)                            # load <= 0.5
 
 
-def test_forget_before_drops_played_frames_at_merges():
+def test_forget_before_drops_played_frames_at_compaction():
     idx = SpaceTimeIndex(cell=1.2)
     idx.insert(0, np.arange(100), np.zeros((100, 2)), 0.3)
     idx.forget_before(50)
-    for k in range(6):
+    for k in range(40):           # 4100 rows: past the first capacity, so compactions run
         idx.insert(1 + k, np.arange(100), np.full((100, 2), 10.0 + 3 * k), 0.3)
-    assert idx.count < 700
+    assert idx.count < 4100
+    frames = idx._keys[:idx.count] >> 42
+    assert np.sum(frames >= 50) == 50 * 41                   # nothing still to play is dropped
+    assert np.sum(frames < 50) <= 0.5 * 50 * 41              # most played rows are gone
     assert idx.overlaps(np.array([60]), np.array([[0.0, 0.0]]), np.array([0.3]))[0]

@@ -6,17 +6,20 @@ Their per-frame cylinders (x, z, radius) live in a uniform grid over (x, z, t): 
 3 x 3 cells around each of its samples at the same frame, so its cost does not grow with the
 number of characters far away.
 
-Storage is a log-structured set of sorted runs: an insert appends a run (one character's
-samples sorted by key), and runs are merged like a binary counter (the newest run is merged
-into the one before it while that one is at most twice as large), so an insert costs
-O(log n) amortised and a query does one ``searchsorted`` per run (O(log n) runs) for all its
-keys at once. Removing a character only bumps its version (O(1)); its rows stay until a merge
-drops them, and queries ignore rows of an old version. ``forget_before(frame)`` lets merges
-drop rows of frames already played, so a running world never needs a full rebuild.
+Storage is a spatial hash with chaining, as game engines keep broad-phase grids: rows live in
+append-only arrays, and ``head[hash(key)]`` / ``next[row]`` thread every row onto the chain of
+its bucket. An insert appends and links its rows (vectorized: the batch is grouped by bucket);
+a query walks all its keys' chains in lock step, one gather per step, so it costs a few random
+reads per key, whatever the number of rows (a sorted-run index did two binary searches per key
+per run: ``bench/crowd_table.py`` spent a third of grid500's planning in them). Removing a
+character only bumps its version (O(1)); its rows stay until the arrays are full, when a
+compaction drops them and the rows of frames before ``forget_before(frame)``, so a running
+world never grows without bound.
 
 Limits: cell size must be >= twice the largest radius plus the margin (checked); frames are
 integers (the fixed clock) in ``[0, 2**20)``; |x|, |z| < 2**20 cells; owners are small
-non-negative ints (character slots).
+non-negative ints (character slots). The bucket table has at least twice as many slots as the
+row capacity (load <= 0.5), so chains stay a few rows long.
 """
 from __future__ import annotations
 
@@ -33,12 +36,11 @@ def _key(frame, ix, iz):
     return (np.asarray(frame, np.int64) << (2 * _BITS)) | (((ix + _OFF) & _MASK) << _BITS) | ((iz + _OFF) & _MASK)
 
 
-
 def key_matches(keys: np.ndarray, qk: np.ndarray, qs: np.ndarray):
     """Every stored row whose key equals a query key, for a sorted run ``keys``: returns
     (query sample ``qs[k]`` of each match, row index), the ranges [lo, hi) of equal keys
-    expanded without a Python loop. Shared by the space-time indexes (this one and
-    :class:`runtime.tiling.boxindex.BoxIndex`)."""
+    expanded without a Python loop. Used by the sorted-run
+    :class:`runtime.tiling.boxindex.BoxIndex`."""
     lo = np.searchsorted(keys, qk, side="left")
     hi = np.searchsorted(keys, qk, side="right")
     cnt = hi - lo
@@ -49,18 +51,30 @@ def key_matches(keys: np.ndarray, qk: np.ndarray, qs: np.ndarray):
     idx = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(tot)
     return q, idx
 
+
+_DI = np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])
+_DJ = np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1])
+
+
 class SpaceTimeIndex:
+    _GOLDEN = np.uint64(0x9E3779B97F4A7C15)    # Fibonacci hashing multiplier
+    MIN_CAPACITY = 1024
+
     def __init__(self, cell: float = 1.2):
         self.cell = float(cell)
-        self._runs: list[tuple[np.ndarray, np.ndarray]] = []   # (sorted keys, rows (n, 5): x, z, r, owner, version)
+        self._n = 0                                        # rows used (stale ones included)
+        self._keys = np.empty(0, dtype=np.int64)
+        self._rows = np.empty((0, 5), dtype=np.float64)    # x, z, r, owner, version
+        self._next = np.empty(0, dtype=np.int64)
+        self._head = np.full(2, -1, dtype=np.int64)
         self._version = np.zeros(64, dtype=np.float64)
         self._floor = -1
         self.max_radius = 0.0
 
     @property
     def count(self) -> int:
-        """Rows stored (stale rows included until merged away)."""
-        return sum(len(k) for k, _ in self._runs)
+        """Rows stored (stale rows included until a compaction drops them)."""
+        return self._n
 
     def __len__(self):
         return self.count
@@ -68,10 +82,51 @@ class SpaceTimeIndex:
     def _versions(self, owners: np.ndarray) -> np.ndarray:
         return self._version[owners.astype(np.int64)]
 
+    def _bucket(self, keys: np.ndarray) -> np.ndarray:
+        shift = np.uint64(64 - (len(self._head).bit_length() - 1))
+        return ((keys.view(np.uint64) * self._GOLDEN) >> shift).astype(np.int64)
+
+    def _link(self, start: int, stop: int) -> None:
+        """Thread rows [start, stop) onto their buckets' chains (newest first)."""
+        rows = np.arange(start, stop)
+        h = self._bucket(self._keys[start:stop])
+        o = np.argsort(h, kind="stable")
+        h, rows = h[o], rows[o]
+        new = np.ones(len(h), dtype=bool)
+        new[1:] = h[1:] != h[:-1]                # first row of each bucket in the batch
+        nxt = np.empty_like(rows)
+        nxt[1:] = rows[:-1]
+        nxt[new] = self._head[h[new]]
+        self._next[rows] = nxt
+        last = np.ones(len(h), dtype=bool)
+        last[:-1] = new[1:]
+        self._head[h[last]] = rows[last]
+
+    def _reserve(self, m: int) -> None:
+        """Room for ``m`` more rows: compact (drop stale and forgotten rows) and grow as needed."""
+        if self._n + m <= len(self._keys):
+            return
+        keys, rows = self._keys[:self._n], self._rows[:self._n]
+        live = rows[:, 4] == self._versions(rows[:, 3])
+        if self._floor >= 0:
+            live &= (keys >> (2 * _BITS)) >= self._floor
+        keys, rows = keys[live], rows[live]
+        n = len(keys)
+        cap = max(self.MIN_CAPACITY, 2 * (n + m))
+        self._keys = np.empty(cap, dtype=np.int64)
+        self._rows = np.empty((cap, 5), dtype=np.float64)
+        self._next = np.empty(cap, dtype=np.int64)
+        self._keys[:n], self._rows[:n] = keys, rows
+        self._head = np.full(1 << int(2 * cap - 1).bit_length(), -1, dtype=np.int64)
+        self._n = n
+        if n:
+            self._link(0, n)
+
     def insert(self, owner: int, frames: np.ndarray, xz: np.ndarray, radius: np.ndarray) -> None:
         """Add one character's samples: frames (n,) int, xz (n, 2), radius (n,)."""
         frames = np.asarray(frames, dtype=np.int64)
-        if len(frames) == 0:
+        m = len(frames)
+        if m == 0:
             return
         owner = int(owner)
         if owner >= len(self._version):
@@ -80,21 +135,15 @@ class SpaceTimeIndex:
         radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape)
         self.max_radius = max(self.max_radius, float(radius.max()))
         ij = np.floor(xz / self.cell).astype(np.int64)
-        keys = _key(frames, ij[:, 0], ij[:, 1])
-        order = np.argsort(keys, kind="stable")
-        rows = np.column_stack([xz, radius, np.full(len(frames), float(owner)),
-                                np.full(len(frames), self._version[owner])])
-        self._runs.append((keys[order], rows[order]))
-        while len(self._runs) > 1 and len(self._runs[-2][0]) <= 2 * len(self._runs[-1][0]):
-            (k1, r1), (k2, r2) = self._runs[-2], self._runs[-1]
-            keys = np.concatenate([k1, k2])
-            rows = np.concatenate([r1, r2])
-            live = rows[:, 4] == self._versions(rows[:, 3])
-            if self._floor >= 0:
-                live &= (keys >> (2 * _BITS)) >= self._floor
-            keys, rows = keys[live], rows[live]
-            o = np.argsort(keys, kind="stable")
-            self._runs[-2:] = [(keys[o], rows[o])] if len(keys) else []
+        self._reserve(m)
+        a, b = self._n, self._n + m
+        self._keys[a:b] = _key(frames, ij[:, 0], ij[:, 1])
+        self._rows[a:b, :2] = xz
+        self._rows[a:b, 2] = radius
+        self._rows[a:b, 3] = owner
+        self._rows[a:b, 4] = self._version[owner]
+        self._n = b
+        self._link(a, b)
 
     def remove_owner(self, owner: int) -> None:
         """Forget every sample of ``owner`` (O(1): its rows become stale)."""
@@ -102,7 +151,7 @@ class SpaceTimeIndex:
             self._version[int(owner)] += 1
 
     def forget_before(self, frame: int) -> None:
-        """Rows of frames before ``frame`` may be dropped (at the next merges)."""
+        """Rows of frames before ``frame`` may be dropped (at the next compaction)."""
         self._floor = int(frame)
 
     def overlaps(self, frames: np.ndarray, xz: np.ndarray, radius: np.ndarray, margin: float = 0.0,
@@ -114,45 +163,54 @@ class SpaceTimeIndex:
         """
         n = len(np.asarray(frames))
         hit = np.zeros(n, dtype=bool)
-        for q, owners in self._hits(frames, xz, radius, margin, ignore_owner):
-            hit[q] = True
-            if first_only:
-                return True
-        return bool(hit.any()) if first_only else hit
+        q, owners = self._hits(frames, xz, radius, margin, ignore_owner)
+        if first_only:
+            return bool(len(q))
+        hit[q] = True
+        return hit
 
     def overlapping_owners(self, frames: np.ndarray, xz: np.ndarray, radius: np.ndarray,
                            margin: float = 0.0) -> dict:
         """The stored characters the query samples overlap: {owner: samples overlapping it}."""
-        out: dict[int, int] = {}
-        for q, owners in self._hits(frames, xz, radius, margin, None):
-            for o, k in zip(*np.unique(owners.astype(np.int64), return_counts=True)):
-                out[int(o)] = out.get(int(o), 0) + int(k)
-        return out
+        q, owners = self._hits(frames, xz, radius, margin, None)
+        o, k = np.unique(owners.astype(np.int64), return_counts=True)
+        return {int(a): int(b) for a, b in zip(o, k)}
+
+    def _matches(self, qk: np.ndarray):
+        """(query index, row) of every stored row whose key equals ``qk[i]``: all the keys'
+        chains walked in lock step."""
+        cur = self._head[self._bucket(qk)]
+        qi = np.flatnonzero(cur >= 0)
+        cur = cur[qi]
+        found_q, found_r = [], []
+        while len(cur):
+            eq = self._keys[cur] == qk[qi]
+            found_q.append(qi[eq])
+            found_r.append(cur[eq])
+            cur = self._next[cur]
+            more = cur >= 0
+            qi, cur = qi[more], cur[more]
+        if not found_q:
+            return qi, cur
+        return np.concatenate(found_q), np.concatenate(found_r)
 
     def _hits(self, frames, xz, radius, margin, ignore_owner):
-        """Per run of stored rows: (query sample indices, stored owners) of the overlapping
-        (query, stored) pairs (generator)."""
+        """(query sample indices, stored owners) of the overlapping (query, stored) pairs."""
         frames = np.asarray(frames, dtype=np.int64)
         xz = np.asarray(xz, dtype=np.float64)
         radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape)
         n = len(frames)
-        if n == 0 or not self._runs:
-            return
+        if n == 0 or self._n == 0:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
         if self.cell < 2 * max(self.max_radius, float(radius.max())) + margin:
             raise ValueError(f"space-time cell {self.cell} m is smaller than twice the largest radius plus margin")
         ij = np.floor(xz / self.cell).astype(np.int64)
-        di = np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])
-        dj = np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1])
-        qk = _key(frames[:, None], ij[:, :1] + di[None], ij[:, 1:] + dj[None]).reshape(-1)
-        qs = np.repeat(np.arange(n), 9)
-        for keys, rows in self._runs:
-            q, idx = key_matches(keys, qk, qs)
-            if len(q) == 0:
-                continue
-            other = rows[idx]
-            d = np.hypot(other[:, 0] - xz[q, 0], other[:, 1] - xz[q, 1])
-            bad = (d < other[:, 2] + radius[q] + margin) & (other[:, 4] == self._versions(other[:, 3]))
-            if ignore_owner is not None:
-                bad &= other[:, 3] != ignore_owner
-            if bad.any():
-                yield q[bad], other[bad, 3]
+        qk = _key(frames[:, None], ij[:, :1] + _DI[None], ij[:, 1:] + _DJ[None]).reshape(-1)
+        k, row = self._matches(qk)
+        q = k // 9
+        other = self._rows[row]
+        d = np.hypot(other[:, 0] - xz[q, 0], other[:, 1] - xz[q, 1])
+        bad = (d < other[:, 2] + radius[q] + margin) & (other[:, 4] == self._versions(other[:, 3]))
+        if ignore_owner is not None:
+            bad &= other[:, 3] != ignore_owner
+        return q[bad], other[bad, 3]
