@@ -501,3 +501,52 @@ def test_a_character_with_time_to_wait_starts_on_a_still_node(default_graph, mon
     first.clear()
     plan_scenario(scenario(start_still=False), g)
     assert first == {"waits": hub, "free": hub, "tight": hub}
+
+
+def test_a_seated_character_leaves_through_the_point_in_front_of_its_seat(default_graph):
+    """With ``approach_point``, the way points from a seat pass the point that far in front of
+    it (down the aisle) before they turn along the row; standing starts and a zero
+    ``approach_point`` keep the straight line."""
+    g = default_graph
+    sit = int(g.nodes_with_label("sit")[0])
+    stand = g.nodes_with_label("stand")
+    goal = Goal(np.array([6.0, 0.3]), None, stand, None)          # further along the row
+    seated = Config(sit, 1.0, 0.0, np.radians(-90.0), 0)          # faces -X: "in front" is -X
+
+    def wps(ap, start):
+        return SegmentPlanner(MotionLibrary(g, SynthesisParams(approach_point=ap))).waypoints(start, goal)
+
+    np.testing.assert_allclose(wps(2.0, seated), [[1.0, 0.0], [-1.0, 0.0], [6.0, 0.3]], atol=1e-12)
+    np.testing.assert_allclose(wps(0.0, seated), [[1.0, 0.0], [6.0, 0.3]])
+    standing = Config(int(stand[0]), 1.0, 0.0, np.radians(-90.0), 0)
+    np.testing.assert_allclose(wps(2.0, standing), [[1.0, 0.0], [6.0, 0.3]])
+    # and a goal within twice the distance of that point: straight there
+    near = Goal(np.array([-1.0, 3.0]), None, stand, None)
+    lib = MotionLibrary(g, SynthesisParams(approach_point=2.0))
+    np.testing.assert_allclose(SegmentPlanner(lib).waypoints(seated, near), [[1.0, 0.0], [-1.0, 3.0]])
+
+
+def test_a_seated_character_holds_its_seat_until_it_is_planned(default_graph):
+    """A character who starts seated and leaves late is planned after one who walks past its
+    seat: until it is planned, its seat is held (for the frames before it could leave), so
+    the walker goes round it and the seated character's plan comes out clean."""
+    from runtime.crowd.environment import Environment, Marker
+    from runtime.crowd.scheduler import _seat_hold, _seated_radius
+    g = default_graph
+    env = Environment(markers=[Marker("/World/Seats/s", "seat", [0.0, 0.0], np.radians(90.0))])
+    data = {"name": "hold", "duration": 16.0, "seed": 0, "synthesis": {"passes": 1},
+            "character": [
+                {"name": "walker", "start": {"position": [-4.0, 0.2], "heading": 90.0, "pose": "stand"},
+                 "goal": [{"position": [4.0, 0.2]}]},
+                {"name": "sitter", "start": {"seat": "/World/Seats/s"},
+                 "goal": [{"position": [3.0, 3.0], "time": [13.0, 14.0]}]}]}
+    sc = parse_scenario(data, env=env, node_labels=set(g.node_labels_all()))
+    hold = _seat_hold(sc.character("sitter"), g, 30.0)
+    assert hold == int((13.0 - np.hypot(3.0, 3.0) / 1.5 - 2.0) * 30.0)
+    assert _seat_hold(sc.character("walker"), g, 30.0) == 0
+    res = plan_scenario(sc, g, env)
+    walker = res.characters[0].track.root
+    gap = np.hypot(walker[:hold, 0], walker[:hold, 1]) - _seated_radius(g)
+    assert gap.min() > 0.2                     # round the held seat (straight on: through it)
+    rep = check_crowd(sc, {c.name: c.track for c in res.characters}, g, env)
+    assert rep["summary"]["character_overlap_pairs"] == 0 and not res.characters[1].warnings

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..motion.graph import STATES
 from .scenario import Scenario, ScenarioError, planning_order
 from .spacetime import SpaceTimeIndex
 from .synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
@@ -172,8 +173,14 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
                    SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05)),
                    still_nodes(graph, params.eps, fps), log)
     order = planning_order(sc)
+    for ci in order:
+        hold = _seat_hold(sc.characters[ci], graph, fps)
+        if hold:
+            ctx.index.insert(ci, np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0),
+                             _seated_radius(graph))
     results: dict[int, CharacterResult] = {}
     for ci in order:
+        ctx.index.remove_owner(ci)          # its seat hold (if any) gives way to its plan
         results[ci] = _plan_one(ctx, results, ci, 0)
         ctx.insert(ci, results[ci].track)
         if progress:
@@ -259,6 +266,30 @@ def _plan_one(ctx: _Context, results, ci: int, k: int, attempt: int = 0) -> Char
 
 
 WALK_SPEED = 1.4    # m/s: a brisk walk, for telling whether a character has time to wait
+HOLD_SPEED = 1.5    # m/s: the fastest straight walk for the earliest time a seated character leaves
+HOLD_GET_UP = 2.0   # s: ... plus the time it takes to get up
+
+
+def _seat_hold(c, graph, fps: float) -> int:
+    """Frames from 0 during which a character who starts seated (``start = { seat = ... }``)
+    surely still sits there: its first goal's window opens after that even at a brisk
+    straight walk (``HOLD_SPEED``, ``HOLD_GET_UP``). Characters are planned one after another
+    (paper 000, section 3.1), and one planned later is invisible to those before it -- but a
+    seated one cannot step aside: a neighbour sitting down next to it would turn across its
+    place. So until it is planned its seat is held for those frames: earlier characters
+    treat it as sitting there (0 when it does not start seated or its first goal has no
+    window)."""
+    if c.start_marker is None or not c.goals or c.goals[0].time is None or c.goals[0].position is None:
+        return 0
+    d = float(np.hypot(*(np.asarray(c.goals[0].position, float) - np.asarray(c.position, float))))
+    return max(0, int((c.goals[0].time[0] - d / HOLD_SPEED - HOLD_GET_UP) * fps))
+
+
+def _seated_radius(graph) -> float:
+    """The bounding cylinder of a seated character: the largest radius of the sitting state's
+    clips (a held seat's cylinder)."""
+    sit = graph.edge_state == STATES.index("sitting")
+    return float(graph.edge_radius[sit].max()) if sit.any() else float(graph.edge_radius.max())
 
 
 def _time_to_wait(c, params) -> bool:

@@ -106,8 +106,8 @@ class SynthesisParams:
     retime_tries: int = 12         # durations tried per colliding splice (nearest first)
     retime_step: int = 3           # frames between those durations
     max_turns: int = 6             # edges a seed may take to turn towards its target when none gains on it
-    approach_point: float = 0.0    # m in front of a seat that the way points pass first (0: off; 1.2 m
-                                   # helped fetch_boxes20 a little and cost the plaza its pass)
+    approach_point: float = 0.0    # m in front of a seat that the way points pass first, and last when
+                                   # leaving one (0: off; the plaza passes without it)
     stop_to_wait: bool = True      # a timed seed blocked at a walking hub stops on a node with idle clips to wait
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     start_still: bool | None = None  # characters start on a node of their pose where they can stand still
@@ -855,18 +855,11 @@ class SegmentPlanner:
     def _goal_node_col(self, P):
         return np.full((P, 1), self._goal_node)
 
-    # -- the whole segment ------------------------------------------------------------------------------
-    def run(self, start: Config, goal: Goal, rng: np.random.Generator, owner: int = -1, name: str = ""):
-        """Generator: yields after each bounded step; returns a :class:`SegmentResult`.
-
-        Seeds are made from the roadmap's way points; the randomized search then runs on them.
-        When the search keeps finding splices below eps that collide with characters already
-        planned (section 3.3's final test), the seeds are made again through a detour way
-        point beside the first collision, alternately left and right and further out; the
-        iterations of all attempts count against N_max.
-        """
-        g, lib, p = self.g, self.lib, self.p
-        travel = self.travel_state(start.node, goal)
+    def waypoints(self, start: Config, goal: Goal) -> np.ndarray:
+        """The segment's way points (n, 2): the roadmap's path from the start to the goal (a
+        straight line without one), passing ``approach_point`` metres in front of a seat
+        before sitting down on it and after getting up from it."""
+        g = self.g
         gxz = np.asarray(goal.position, float)
         via = None
         if self.p.approach_point > 0 and goal.heading is not None and goal.nodes is not None \
@@ -879,13 +872,34 @@ class SegmentPlanner:
                 via = None
             if via is not None and np.hypot(*(via - [start.x, start.z])) < 2 * self.p.approach_point:
                 via = None
-        if self.roadmap is not None and self.env is not None:
-            head = via if via is not None else gxz
-            base = self.roadmap.waypoints(self.env, np.array([start.x, start.z]), head)
-            if via is not None:
-                base = np.concatenate([base, gxz[None]])
-        else:
-            base = np.array([[start.x, start.z]] + ([via] if via is not None else []) + [gxz], dtype=np.float64)
+        dep = None
+        if self.p.approach_point > 0 and g.node_state[start.node] == STATES.index("sitting"):
+            # and one gets up to in front of the seat: the way points leave through the same
+            # point, so a character walks off down the middle of the aisle, not along the
+            # seated row's knees
+            dep = np.array([start.x, start.z]) + self.p.approach_point * np.array([np.sin(start.heading), np.cos(start.heading)])
+            if (self.env is not None and self.env.distance(dep[None])[0] < 0.5 * self.p.approach_point) \
+                    or np.hypot(*(dep - gxz)) < 2 * self.p.approach_point:
+                dep = None
+        origin = np.array([start.x, start.z])
+        a, b = (origin if dep is None else dep), (gxz if via is None else via)
+        path = self.roadmap.waypoints(self.env, a, b) if self.roadmap is not None and self.env is not None \
+            else np.array([a, b], dtype=np.float64)
+        return np.concatenate([origin[None]] * (dep is not None) + [path] + [gxz[None]] * (via is not None))
+
+    # -- the whole segment ------------------------------------------------------------------------------
+    def run(self, start: Config, goal: Goal, rng: np.random.Generator, owner: int = -1, name: str = ""):
+        """Generator: yields after each bounded step; returns a :class:`SegmentResult`.
+
+        Seeds are made from the roadmap's way points; the randomized search then runs on them.
+        When the search keeps finding splices below eps that collide with characters already
+        planned (section 3.3's final test), the seeds are made again through a detour way
+        point beside the first collision, alternately left and right and further out; the
+        iterations of all attempts count against N_max.
+        """
+        g, lib, p = self.g, self.lib, self.p
+        travel = self.travel_state(start.node, goal)
+        base = self.waypoints(start, goal)
         yield
         tgt = goal.nodes
         budget = None
