@@ -531,19 +531,24 @@ def theater_scenario(seed: int = 0) -> dict:
 # Experiment 5: seated characters fetch boxes, put them down, return
 FETCH_SEAT_X = 1.5 + 1.6 * np.arange(5)
 FETCH_ROWS = ((1.2, 0.0), (6.8, 180.0), (9.2, 0.0), (14.8, 180.0))   # (z, heading): two corridors
-FETCH_DOORS = (4.0, 12.0)
+FETCH_DOORS = (4.0, 12.0)            # z of the doors' centres (3 m wide), on the corridors' axes
+FETCH_ROUND_SLACK = 4.0               # s between a corridor's near round back in its seats and its far round leaving
 FETCH_GAP = 6.0                       # s between consecutive characters of a corridor
-FETCH_BOX_INSET = 2.1                 # m from the wall behind a box to the box
+FETCH_LANES = np.concatenate([1.1 + 1.5 * np.arange(5), 14.9 - 1.5 * np.arange(5)[::-1]])   # z of room B's ten lanes, five per door
+FETCH_PICK_X = (14.0, 20.0)           # x where a character stands to pick up the near and far box
+FETCH_CARRY = 3.0                     # m carried straight on along the lane to the put-down spot
+FETCH_ROOM_B = (10.0, 25.5)           # x extent of room B
 
 
 def fetch_world() -> WorldBuilder:
     """Room A (x 0..10, z 0..16) with 20 seats in four rows of five facing two 4 m wide
-    corridors; room B (x 10..24) with 20 boxes along its walls; two 3 m doors (z = 4, 12)."""
+    corridors; room B (x 10..25.5) with 20 boxes on ten lanes; two 3 m doors (z = 2.5, 13.5)."""
     w = WorldBuilder("crowdweave sample fetch_boxes20: a seating room and a store room with 20 boxes "
                      "(metres, Y up). Written by samples/make_samples.py.")
-    w.wall("North", (0, 0), (24, 0))
-    w.wall("East", (24, 0), (24, 16))
-    w.wall("South", (0, 16), (24, 16))
+    xb = FETCH_ROOM_B[1]
+    w.wall("North", (0, 0), (xb, 0))
+    w.wall("East", (xb, 0), (xb, 16))
+    w.wall("South", (0, 16), (xb, 16))
     w.wall("West", (0, 0), (0, 16))
     w.wall("Between", (10, 0), (10, 16), doors=[(z, 3.0) for z in FETCH_DOORS])
     w.block("Divider", 0.1, 7.9, 9.9, 8.1, 1.0)       # low divider between the back-to-back rows
@@ -556,65 +561,60 @@ def fetch_world() -> WorldBuilder:
 
 
 def fetch_boxes():
-    """(x, z, heading) of the 20 boxes, 10 per half of room B: five in a row 2.1 m in from the
-    side wall and five in a column 2.1 m in from the far wall (1.4 m apart), all facing into the
-    room, lower half then upper. A character picks a box up facing the wall behind it, and the
-    library's carrying clips only turn while walking on (about 1 m per 60 degrees): the 2.5 m
-    between a pick-up spot and the wall are where it turns round with the box."""
-    out = []
-    for zw, hw, zs in ((FETCH_BOX_INSET, 0.0, 1.75 + 1.4 * np.arange(5)),
-                       (16.0 - FETCH_BOX_INSET, 180.0, 14.25 - 1.4 * np.arange(5))):
-        out += [(x, zw, hw) for x in (12.5, 14.5, 16.5, 18.5, 20.5)]
-        out += [(24.0 - FETCH_BOX_INSET, round(float(z), 3), -90.0) for z in zs]
-    return out
+    """(x, z, heading) of the 20 boxes: two on each of room B's ten lanes (z = ``FETCH_LANES``,
+    1.5 m apart, 1 m from the walls), a near one and a far one, all facing -X (towards the doors). A character picks
+    a box up facing away from the door, carries it ``FETCH_CARRY`` m straight on along its lane
+    and puts it down there: the library's carrying clips turn only while walking on (about 1 m
+    per 60 degrees), so no one has to turn round with a box. Numbered lane by lane, near box
+    first."""
+    from runtime.crowd.scenario import BOX_REACH
+    return [(x + BOX_REACH, float(z), -90.0) for z in FETCH_LANES for x in FETCH_PICK_X]
 
 
 def fetch_scenario(seed: int = 0) -> dict:
-    """Each seated character stands up, picks up its box in room B, carries it to its spot in
-    room B (a 5 x 2 block per corridor, off the routes to the boxes), puts it down (pose
-    "stand") and returns to its own seat. Characters nearest the door leave first,
-    ``FETCH_GAP`` (6 s) apart, taking turns between the two walls' boxes. The
-    pick-up and the put-down have 2.5 s windows laid out from the distances (walking 1 m/s,
-    carrying 0.7 m/s, about 3.5 s per pose change); the return to the seat has none (the
-    paper's Experiment 5 times no goal): a character sits down when it gets there."""
+    """Each seated character stands up, walks through its corridor's door to its box in room B,
+    picks it up, carries it ``FETCH_CARRY`` m on along the lane, puts it down there (pose
+    "stand") and returns to its own seat. Each door serves the five lanes of its half, from
+    their outer end; the near boxes go first, then the far ones (a far carrier walks through
+    its lane's near spots after they are used), each time the lane nearest the door first,
+    ``FETCH_GAP`` (6 s) apart, the characters seated nearest the door first; the far round
+    leaves when the near round should be back in its seats. The pick-up and the
+    put-down have 2.5 s windows laid out from the distances (walking 1 m/s, carrying 0.7 m/s,
+    about 3.5 s per pose change); the return to the seat has none (the paper's Experiment 5
+    times no goal): a character sits down when it gets there."""
     from runtime.crowd.scenario import BOX_REACH
     boxes = fetch_boxes()
     chars = []
     t_last = []
     for cor in range(2):
-        rows = FETCH_ROWS[2 * cor:2 * cor + 2]
         seats = [(r + 2 * cor, j) for j in range(4, -1, -1) for r in range(2)]     # nearest the door first
-        bidx = list(range(10 * cor, 10 * cor + 10))
-        bstand = {b: np.array(boxes[b][:2]) + BOX_REACH * np.array([math.sin(math.radians(boxes[b][2])),
-                                                                    math.cos(math.radians(boxes[b][2]))]) for b in bidx}
+        # lanes nearest the door first: everyone walks a straight line between the door and
+        # its lane, so a character walking back crosses only lanes (on its side of the door)
+        # whose users went before it and are ahead of it on the same way back, and one walking
+        # out crosses none in use
+        lanes = sorted(range(5 * cor, 5 * cor + 5), key=lambda i: abs(FETCH_LANES[i] - FETCH_DOORS[cor]))
+        bidx = [2 * lane + far for far in (0, 1) for lane in lanes]
         door = np.array([10.0, FETCH_DOORS[cor]])
-        # a carrier turns round with its box on a loop about 2 m wide, over the neighbouring
-        # boxes' spots, and then walks back towards the door: the far wall's column (every
-        # other box, from the corridor's outer end) and the side wall's row (nearest the door
-        # first, so no one carries a box back past a spot still to be used) take turns, so
-        # the next character (FETCH_GAP later) goes to the other wall
-        row = sorted([b for b in bidx if boxes[b][2] != -90.0], key=lambda b: boxes[b][0])
-        col = sorted([b for b in bidx if boxes[b][2] == -90.0], key=lambda b: -abs(boxes[b][1] - boxes[row[0]][1]))
-        col = col[0::2] + col[1::2]
-        bidx = [b for pair in zip(col, row) for b in pair]
-        # put-down spots off the door-to-box routes (which run at z 2.5-4.5 in the lower half),
-        # the ones nearest the door first: a character walking back to the door then never
-        # passes a spot still to be used, and one carrying a box never passes one in use
-        zs = (7.2, 5.9) if cor == 0 else (8.8, 10.1)
-        places = [np.array([x, z]) for x in (13.0, 14.5, 16.0, 17.5, 19.0) for z in zs]
-        t_prev = [-10.0, -10.0, -10.0]
-        for k, ((r, j), b, place) in enumerate(zip(seats, bidx, places)):
+        t_prev = [-10.0, -10.0]
+        back = []                   # when each character should be seated again
+        for k, ((r, j), b) in enumerate(zip(seats, bidx)):
             z, h = FETCH_ROWS[r]
             seat = np.array([FETCH_SEAT_X[j], z])
             up = seat + 0.42 * np.array([math.sin(math.radians(h)), math.cos(math.radians(h))])
-            d1 = float(np.hypot(*(door - up)) + np.hypot(*(bstand[b] - door)))
-            d2 = float(np.hypot(*(place - bstand[b])))
+            pick = np.array(boxes[b][:2]) - [BOX_REACH, 0.0]
+            place = pick + [FETCH_CARRY, 0.0]
+            d1 = float(np.hypot(*(door - up)) + np.hypot(*(pick - door)))
+            leave = 3.0 + d1 / WALK_SPEED + 4.0          # standing up, walking, picking up
+            t1 = max(leave, t_prev[0] + FETCH_GAP)
+            if k == 5:
+                # the far round leaves once the near round is back in its seats: its first
+                # carrier would otherwise meet them head-on in the corridor and the door
+                t1 = max(t1, max(back) + FETCH_ROUND_SLACK + leave)
+            t2 = max(t1 + 2.5 + FETCH_CARRY / 0.7 + 4.0, t_prev[1] + FETCH_GAP)
+            t_prev = [t1, t2]
             d3 = float(np.hypot(*(door - place)) + np.hypot(*(up - door)))
-            t1 = max(3.0 + d1 / WALK_SPEED + 4.0, t_prev[0] + FETCH_GAP)
-            t2 = max(t1 + 2.5 + d2 / 0.7 + 4.0, t_prev[1] + FETCH_GAP)
-            t3 = max(t2 + 2.5 + d3 / WALK_SPEED + 4.0, t_prev[2] + FETCH_GAP)
-            t_prev = [t1, t2, t3]
-            t_last.append(t3 + 2.5)
+            back.append(t2 + 2.5 + d3 / WALK_SPEED + 8.0)
+            t_last.append(back[-1])
             sid = f"s{r * 5 + j + 1:02d}"
             chars.append({"name": f"c{len(chars) + 1:02d}", "start": {"seat": f"/World/Seats/{sid}"},
                           "goal": [{"box": f"/World/Boxes/b{b + 1:02d}", "time": [round(t1, 1), round(t1 + 2.5, 1)]},
@@ -624,13 +624,14 @@ def fetch_scenario(seed: int = 0) -> dict:
     chars = [c for pair in zip(chars[:10], chars[10:]) for c in pair]
     for i, c in enumerate(chars):
         c["name"] = f"c{i + 1:02d}"
-    dur = max(t_last) + 3.0
+    dur = max(t_last) + 10.0
     return {"name": "fetch_boxes20", "description": "Experiment 5 (paper 000, Figure 9): 20 seated characters "
             "fetch boxes, put them down at designated spots and return to their seats", "world": "world.usda",
             "library": "default", "duration": float(math.ceil(dur)), "seed": seed,
-            # way points to a seat pass 1.2 m in front of it: a returner comes in square
-            # between its seated neighbours (1.6 m apart) instead of across their places
-            "synthesis": {"approach_point": 1.2}, "character": chars}
+            # way points to a seat pass 2 m in front of it, in the corridor's middle: a returner
+            # walks there, clear of the seated row, and comes in square between its seated
+            # neighbours (1.6 m apart) instead of across their places
+            "synthesis": {"approach_point": 2.0}, "character": chars}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -782,17 +783,37 @@ the one before has sat down by then, so two characters do not walk a row's lane 
 the second room (`box = ...`), put it down at a designated spot (a `position` goal with pose
 `stand` reached from the carrying state: the put-down) and **return to its own seat**.
 
-`world.usda`: room A (x 0..10, z 0..16) with 20 seats in four rows of five facing two 4 m wide
-corridors (rows back to back in the middle), room B (x 10..24) with 20 boxes in a row and a
-column 2.1 m in from its side and far walls (facing into the room, 1.4-2 m apart: a character
-picks a box up facing the wall, and the library's carrying clips turn only while walking
-on, so it needs the room in front to turn round), two 3 m doors (z = 4 and z = 12). Each
-corridor's ten characters use their own door, the lower or upper half of room B and a 5 x 2
-block of put-down spots (1.5 m by 1.3 m apart) off the routes from the door to the boxes, used
-nearest the door first. Characters nearest the door leave first, 4 s apart, and
-fetch the farthest boxes. The pick-up and put-down windows (2.5 s wide) are laid out from the
-distances at 1 m/s walking, 0.7 m/s carrying and about 3.5 s per pose change; the return to
-the seat has no window (a character sits down when it gets there).
+`world.usda`: room A (x 0..10, z 0..16) with 20 seats in four rows of five (1.6 m apart) facing
+two corridors (rows back to back in the middle, behind a low divider); room B (x 10..25.5) with
+ten lanes 1.5 m apart (z = 1.1 .. 14.9), two boxes on each (a near and a far one, all facing the
+doors); two 3 m doors on the corridors' axes (z = 4 and 12). Each door serves the five lanes of
+its half.
+
+The layout follows from the default library:
+
+- The carrying clips turn only while walking on (about 1 m per 60 degrees), so no one turns
+  round with a box: a character picks its box up facing away from the door and puts it down
+  3 m straight on along its lane.
+- Everyone walks a straight line between its corridor's door and its lane, and the lanes
+  nearest the door go first. A character walking back then crosses only lanes whose users
+  went before it, and those are ahead of it on the same way back.
+- The near boxes go first and the far ones second. A far carrier walks through its lane's
+  near spots after they have been used. The far round leaves once the near round should be
+  back in its seats; otherwise its first carriers would meet them head-on in the corridor and
+  the door.
+- Within a round, characters leave 6 s apart, those seated nearest the door first. The
+  pick-up and put-down windows (2.5 s wide) are laid out from the distances, at 1 m/s walking,
+  0.7 m/s carrying and about 3.5 s per pose change.
+- The return to the seat has no window: a character sits down when it gets there.
+
+Two planner settings matter here:
+
+- **`[synthesis] approach_point = 2.0`.** Way points to a seat pass 2 m in front of it, and way
+  points from a seat leave through that point. Characters therefore walk down the middle of
+  the corridor, clear of the seated rows, and come in square between their seated neighbours.
+- **Seat holds.** A character who starts seated holds its seat, for the frames before it could
+  leave, until it is planned (`runtime/crowd/scheduler.py`, `_seat_hold`). A neighbour sitting
+  down next to it, planned earlier, then turns round clear of its place.
 """, world=True),
     "grid300": _readme("grid300", "paper 000, Experiment 6a (Figure 10)", """
 300 characters on a uniform 20 x 15 grid (3.0 m spacing, facing +X) walk to a copy of the grid

@@ -127,6 +127,12 @@ def test_theater_and_fetch_seats(labels):
         assert c.goals[1].pose == "stand"                                   # the put-down
     boxes = [c.goals[0].marker for c in sc.characters]
     assert len(set(boxes)) == 20
+    # no one turns round with a box: the put-down is straight on from the pick-up, along the
+    # direction the character faces to pick it up (the carrying clips only turn walking on)
+    for c in sc.characters:
+        pick, place = c.goals[0], c.goals[1]
+        facing = np.array([np.sin(pick.heading), np.cos(pick.heading)])
+        np.testing.assert_allclose(place.position - pick.position, make_samples.FETCH_CARRY * facing, atol=1e-9)
 
 
 def test_rooms_box_route_needs_every_room(labels):
