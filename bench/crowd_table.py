@@ -21,7 +21,8 @@ Figures only, no asserts. Timings are wall-clock on this machine; planning is si
 
 ``--quick`` plans at most 10 characters of each sample (a prefix of the planning order, which
 keeps every timing dependency), a 10 x 6 grid instead of the 300/500 ones, three spacings and
-three eps scales. ``--only NAME`` runs one sample's Table 1 row, or ``fig11`` / ``fig12``.
+three eps scales. ``--only NAME`` runs one sample's Table 1 row, or ``table1`` (all its rows),
+``fig11`` or ``fig12``.
 """
 from __future__ import annotations
 
@@ -201,17 +202,17 @@ def fig12(quick, quiet):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="Paper 000 Table 1 and Figures 11-12 on the sample scenarios.")
     ap.add_argument("--quick", action="store_true", help="fewer characters, smaller grids, fewer sweep points")
-    ap.add_argument("--only", default=None, help="one sample name, or fig11 / fig12")
+    ap.add_argument("--only", default=None, help="one sample name, or table1 / fig11 / fig12")
     ap.add_argument("--quiet", action="store_true", help="no progress bars")
     args = ap.parse_args(argv)
     quiet = args.quiet or not sys.stderr.isatty()
     names = [n for _, n, _ in TABLE1]
-    if args.only and args.only not in names + ["fig11", "fig12"]:
-        ap.error(f"--only: unknown {args.only!r} (samples: {', '.join(names)}; or fig11, fig12)")
+    if args.only and args.only not in names + ["table1", "fig11", "fig12"]:
+        ap.error(f"--only: unknown {args.only!r} (samples: {', '.join(names)}; or table1, fig11, fig12)")
     from authoring.default_library import ensure_library
     ensure_library("default", log=lambda m: print(m, file=sys.stderr), progress=not quiet)
-    if args.only in (None, *names):
-        table1([args.only] if args.only else names, args.quick, quiet)
+    if args.only in (None, "table1", *names):
+        table1([args.only] if args.only in names else names, args.quick, quiet)
     if args.only in (None, "fig11"):
         fig11(args.quick, quiet)
     if args.only in (None, "fig12"):
