@@ -10,14 +10,15 @@
   ratio of our total to theirs.
 * **Figure 11** -- mean synthesis time per character for a 300-character grid (20 x 15,
   ``samples/make_samples.grid_scenario``) at grid spacings 2.2, 2.6, 3.0 and 3.5 m (the samples
-  use 3.0 m), with the ratio to the widest spacing measured in the same run.
+  use 3.0 m), widest first, each row printed when done with its ratio to the widest spacing
+  measured in the same run (``--spacings 2.6,3.0`` picks the spacings).
 * **Figure 12** -- total (and per-character) synthesis time for spell70 with the adjustment
   tolerance eps scaled by 0.5, 1, 2, 4 and 8, the ratio to eps x 1 measured in the same run; the
   checker uses the scaled eps of each row.
 
 Figures only, no asserts. Timings are wall-clock on this machine; planning is single-threaded.
 
-    CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_table.py [--quick] [--only NAME] [--quiet]
+    CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_table.py [--quick] [--only NAME] [--spacings ...] [--quiet]
 
 ``--quick`` plans at most 10 characters of each sample (a prefix of the planning order, which
 keeps every timing dependency), a 10 x 6 grid instead of the 300/500 ones, three spacings and
@@ -156,11 +157,11 @@ def table1(names, quick, quiet):
             print(f"    (loading the sample, library and roadmap took {load_s:.1f} s, not counted)")
 
 
-def fig11(quick, quiet):
+def fig11(quick, quiet, spacings=None):
     import make_samples
     from runtime.crowd.scenario import parse_scenario
     cols, rows = (10, 6) if quick else (20, 15)
-    spacings = (2.2, 3.0, 3.5) if quick else FIG11_SPACINGS
+    spacings = spacings or ((2.2, 3.0, 3.5) if quick else FIG11_SPACINGS)
     graph = default_graph()
     labels = set(graph.node_labels_all())
     print(f"\nFigure 11 (paper 000): mean synthesis time per character vs grid spacing, {cols * rows} characters "
@@ -168,15 +169,14 @@ def fig11(quick, quiet):
     head = f"{'spacing':>8} {'synth/char':>11} {'total':>9} {'duration':>9} {'warn':>5} {'vs widest':>10}  checker"
     print(head)
     print("-" * len(head))
-    rows_out = []
-    for sp in spacings:
+    ref = None
+    for sp in sorted(spacings, reverse=True):        # widest first: each row prints its ratio when done
         data = make_samples.grid_scenario(cols, rows, spacing=sp, seed=0, name=f"grid{cols * rows}-{sp:g}m")
         sc = parse_scenario(data, f"<grid spacing {sp:g}>", node_labels=labels)
-        rows_out.append((sp, run(sc, graph, None, None, quiet=quiet)))
-    ref = rows_out[-1][1]["per_char"]
-    for sp, r in rows_out:
+        r = run(sc, graph, None, None, quiet=quiet)
+        ref = ref or r["per_char"]
         print(f"{sp:>7.1f}m {r['per_char']:>10.3f}s {r['total']:>8.2f}s {r['duration']:>8.1f}s {r['warnings']:>5} "
-              f"{r['per_char'] / ref:>9.2f}x  {verdict(r)}")
+              f"{r['per_char'] / ref:>9.2f}x  {verdict(r)}", flush=True)
 
 
 def fig12(quick, quiet):
@@ -204,7 +204,14 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="fewer characters, smaller grids, fewer sweep points")
     ap.add_argument("--only", default=None, help="one sample name, or table1 / fig11 / fig12")
     ap.add_argument("--quiet", action="store_true", help="no progress bars")
+    ap.add_argument("--spacings", default=None,
+                    help="Figure 11's grid spacings in metres, comma-separated (default 2.2,2.6,3.0,3.5); "
+                         "they run widest first and the ratio column is to the widest")
     args = ap.parse_args(argv)
+    try:
+        spacings = tuple(float(v) for v in args.spacings.split(",")) if args.spacings else None
+    except ValueError:
+        ap.error(f"--spacings: expected comma-separated metres, got {args.spacings!r}")
     quiet = args.quiet or not sys.stderr.isatty()
     names = [n for _, n, _ in TABLE1]
     if args.only and args.only not in names + ["table1", "fig11", "fig12"]:
@@ -214,7 +221,7 @@ def main(argv=None) -> int:
     if args.only in (None, "table1", *names):
         table1([args.only] if args.only in names else names, args.quick, quiet)
     if args.only in (None, "fig11"):
-        fig11(args.quick, quiet)
+        fig11(args.quick, quiet, spacings)
     if args.only in (None, "fig12"):
         fig12(args.quick, quiet)
     return 0
