@@ -272,8 +272,9 @@ HOLD_GET_UP = 2.0   # s: ... plus the time it takes to get up
 
 def _seat_hold(c, graph, fps: float) -> int:
     """Frames from 0 during which a character who starts seated (``start = { seat = ... }``)
-    surely still sits there: its first goal's window opens after that even at a brisk
-    straight walk (``HOLD_SPEED``, ``HOLD_GET_UP``). Characters are planned one after another
+    has no need to leave yet: getting up and walking straight to its first goal at a brisk
+    pace (``HOLD_GET_UP``, ``HOLD_SPEED``) still arrives before the goal's window opens.
+    Characters are planned one after another
     (paper 000, section 3.1), and one planned later is invisible to those before it -- but a
     seated one cannot step aside: a neighbour sitting down next to it would turn across its
     place. So until it is planned its seat is held for those frames: earlier characters
