@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SpaceTimeIndex", "key_matches"]
+__all__ = ["SpaceTimeIndex"]
 
 _BITS = 21
 _OFF = 1 << (_BITS - 1)
@@ -34,22 +34,6 @@ _MASK = (1 << _BITS) - 1
 
 def _key(frame, ix, iz):
     return (np.asarray(frame, np.int64) << (2 * _BITS)) | (((ix + _OFF) & _MASK) << _BITS) | ((iz + _OFF) & _MASK)
-
-
-def key_matches(keys: np.ndarray, qk: np.ndarray, qs: np.ndarray):
-    """Every stored row whose key equals a query key, for a sorted run ``keys``: returns
-    (query sample ``qs[k]`` of each match, row index), the ranges [lo, hi) of equal keys
-    expanded without a Python loop. Used by the sorted-run
-    :class:`runtime.tiling.boxindex.BoxIndex`."""
-    lo = np.searchsorted(keys, qk, side="left")
-    hi = np.searchsorted(keys, qk, side="right")
-    cnt = hi - lo
-    tot = int(cnt.sum())
-    if tot == 0:
-        return qs[:0], lo[:0]
-    q = np.repeat(qs, cnt)
-    idx = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(tot)
-    return q, idx
 
 
 _DI = np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])

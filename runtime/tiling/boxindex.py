@@ -4,9 +4,9 @@ test on individual frames"; hard-parts.md "Tiling speed").
 Every placed patch instance contributes, for each clock frame it covers, one box per character:
 the root-relative box of :mod:`runtime.tiling.patch` placed at the root (centre, the box's lateral
 and forward axes in the world, half extents, height range). Boxes live in a uniform grid over
-(x, z, frame) keyed by one int64, stored like :class:`runtime.crowd.spacetime.SpaceTimeIndex`
-(log-structured sorted runs merged like a binary counter, and at most ``max_runs`` runs so a query
-does few binary searches; removal bumps an owner's version in O(1), merges drop stale rows). A query touches the 3 x 3 cells around each of its boxes at the same frame (the cell is
+(x, z, frame) keyed by one int64, stored as log-structured sorted runs merged like a binary
+counter (at most ``max_runs`` runs, so a query does few binary searches, :func:`key_matches`);
+removal bumps an owner's version in O(1), merges drop stale rows. A query touches the 3 x 3 cells around each of its boxes at the same frame (the cell is
 at least twice the largest box half-diagonal plus the margin), then runs an exact 2-D
 separating-axis test on the oriented boxes and an interval test on the heights, all vectorized.
 
@@ -24,9 +24,23 @@ import math
 
 import numpy as np
 
-from ..crowd.spacetime import key_matches
-
 __all__ = ["BoxIndex", "obb_overlap", "box_samples"]
+
+
+def key_matches(keys: np.ndarray, qk: np.ndarray, qs: np.ndarray):
+    """Every stored row whose key equals a query key, for a sorted run ``keys``: returns
+    (query sample ``qs[k]`` of each match, row index), the ranges [lo, hi) of equal keys
+    expanded without a Python loop."""
+    lo = np.searchsorted(keys, qk, side="left")
+    hi = np.searchsorted(keys, qk, side="right")
+    cnt = hi - lo
+    tot = int(cnt.sum())
+    if tot == 0:
+        return qs[:0], lo[:0]
+    q = np.repeat(qs, cnt)
+    idx = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(tot)
+    return q, idx
+
 
 _BITS = 21
 _OFF = 1 << (_BITS - 1)
