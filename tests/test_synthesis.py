@@ -550,3 +550,52 @@ def test_a_seated_character_holds_its_seat_until_it_is_planned(default_graph):
     assert gap.min() > 0.2                     # round the held seat (straight on: through it)
     rep = check_crowd(sc, {c.name: c.track for c in res.characters}, g, env)
     assert rep["summary"]["character_overlap_pairs"] == 0 and not res.characters[1].warnings
+
+
+def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, monkeypatch):
+    """When every motion to an untimed goal runs into characters planned earlier, the scheduler
+    puts the start off (``depart_delays``): the character stands at its start, on its still
+    node, then goes -- the plan keeps the idling (back on the start configuration, within eps)
+    and has no warning. Here the planner is made to fail every motion that starts at frame 0
+    (as if it ran into someone right at the start)."""
+    import runtime.crowd.scheduler as sched
+    import runtime.crowd.synthesis as synth
+    real = synth.SegmentPlanner.run
+    starts = []
+
+    def run(self, start, goal, rng, owner=-1, name=""):
+        starts.append(start.frame)
+        res = yield from real(self, start, goal, rng, owner, name)
+        if start.frame == 0:
+            res.warning, res.collided = "forced collision", True
+        return res
+
+    monkeypatch.setattr(synth.SegmentPlanner, "run", run)
+    monkeypatch.setattr(sched, "_collides_early", lambda planner, res, frames: res.start_frame == 0)
+    sc = parse_scenario({"name": "one", "duration": 12.0, "seed": 0, "synthesis": {"passes": 1},
+                         "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+                                        "goal": [{"position": [0.0, 4.0]}]}]})
+    res = plan_scenario(sc, default_graph)
+    c = res.characters[0]
+    assert c.warnings == []
+    later = [f for f in starts if f > 0]
+    assert later and 1.5 * 30 <= later[0] <= 2.5 * 30          # the first delay, 2 s, in whole idle loops
+    root = c.track.root
+    assert np.abs(root[: later[0] + 1] - root[0]).max() < 0.05     # standing at the start till then
+    assert np.abs(root[later[0]] - root[0]).max() < 1e-9           # ... and back on its configuration
+    assert np.hypot(*(root[c.arrivals[0], :2] - [0.0, 4.0])) < 1e-3
+    rep = check_crowd(sc, {c.name: c.track}, default_graph)
+    assert rep["summary"]["passed"], rep["summary"]
+    # with no delays the forced collision stays a warning
+    starts.clear()
+    monkeypatch.setattr(SynthesisParams, "__init__", _with(SynthesisParams.__init__, depart_delays=()))
+    res = plan_scenario(sc, default_graph)
+    assert res.characters[0].warnings and all(f == 0 for f in starts)
+
+
+def _with(init, **overrides):
+    def patched(self, *a, **k):
+        init(self, *a, **k)
+        for key, v in overrides.items():
+            setattr(self, key, v)
+    return patched

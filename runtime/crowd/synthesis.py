@@ -110,6 +110,9 @@ class SynthesisParams:
                                    # leaving one (0: off; the plaza passes without it)
     stop_to_wait: bool = True      # a timed seed blocked at a walking hub stops on a node with idle clips to wait
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
+    depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all its
+                                   # motions collide (scheduler; from a node where one can stand still) ...
+    depart_within: float = 10.0    # ... and the first collision comes within this many s of the start
     start_still: bool | None = None  # characters start on a node of their pose where they can stand still
                                    # and wait (scheduler; the World always does). False: the pose's most
                                    # connected node, which for "stand" is a walking hub (see docs/status.md).
