@@ -55,19 +55,26 @@ def run_to_completion(gen):
         return e.value
 
 
+def _idle_loop(g, node: int) -> int:
+    """The node's self-loop clip with the least drift (the one idling repeats), or -1."""
+    loops = np.flatnonzero((g.edge_src == node) & (g.edge_dst == node))
+    if len(loops) == 0:
+        return -1
+    drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
+    return int(loops[np.argmin(drift)])
+
+
 def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
     """``n_frames`` frames (including the start frame) of idling at ``cfg``: the node's
     self-loop clip with the least drift, repeated, each repeat bent back onto the start
     configuration; a held pose when the node has no self loop."""
     g = lib.g
-    loops = np.flatnonzero((g.edge_src == cfg.node) & (g.edge_dst == cfg.node))
+    e = _idle_loop(g, cfg.node)
     start = np.array([cfg.x, cfg.z, cfg.heading])
     last = g.edge_start[np.flatnonzero(g.edge_dst == cfg.node)[0] + 1] - 1 if np.any(g.edge_dst == cfg.node) else 0
-    if len(loops) == 0 or n_frames <= 1:
+    if e < 0 or n_frames <= 1:
         fa = np.full(n_frames, last, dtype=np.int64)
         return Track(fa, fa.copy(), np.zeros(n_frames, np.float32), np.repeat(start[None], n_frames, 0), cfg.frame)
-    drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
-    e = int(loops[np.argmin(drift)])
     a, b = g.edge_start[e], g.edge_start[e + 1]
     L = b - a                                   # frames in the loop including both hub frames
     local = np.stack([g.frame_xz[a:b, 0], g.frame_xz[a:b, 1], g.frame_heading[a:b]], axis=1)
@@ -89,11 +96,9 @@ def still_nodes(graph, eps, fps: float = 30.0) -> np.ndarray:
     ep, eh = float(eps[0]), float(eps[1])
     still = np.zeros(g.num_nodes, dtype=bool)
     for n in range(g.num_nodes):
-        loops = np.flatnonzero((g.edge_src == n) & (g.edge_dst == n))
-        if len(loops) == 0:
+        e = _idle_loop(g, n)
+        if e < 0:
             continue
-        drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
-        e = int(loops[np.argmin(drift)])
         d = g.edge_disp[e]
         dur = (g.edge_frames[e] - 1) / fps
         still[n] = dur > 0 and np.hypot(d[0], d[1]) / dur <= ep and np.degrees(abs(d[2])) / dur <= eh
@@ -379,9 +384,7 @@ def _idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:
     loop clip, so that the last frame is back on ``cfg``'s node and configuration; its clock
     starts at ``cfg.frame``."""
     g = graph
-    loops = np.flatnonzero((g.edge_src == cfg.node) & (g.edge_dst == cfg.node))
-    drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
-    e = int(loops[np.argmin(drift)])            # the clip idle_track repeats
+    e = _idle_loop(g, cfg.node)                 # the clip idle_track repeats
     step = int(g.edge_start[e + 1] - g.edge_start[e]) - 1
     n = 1 + max(1, int(round(seconds * fps / step))) * step
     tr = idle_track(lib, cfg, n)
