@@ -64,6 +64,12 @@ def _idle_loop(g, node: int) -> int:
     return int(loops[np.argmin(drift)])
 
 
+def track_radius(graph, track: Track) -> np.ndarray:
+    """Per frame of ``track``, its bounding cylinder's radius (the larger of the two library
+    frames it blends)."""
+    return np.maximum(graph.frame_radius[track.frames_a], graph.frame_radius[track.frames_b])
+
+
 def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
     """``n_frames`` frames (including the start frame) of idling at ``cfg``: the node's
     self-loop clip with the least drift, repeated, each repeat bent back onto the start
@@ -113,7 +119,7 @@ def _hold_tail(lib, graph, end: Config, n_total: int):
         return None
     tr = idle_track(lib, end, n)
     frames = end.frame + np.arange(1, n)
-    rad = np.maximum(graph.frame_radius[tr.frames_a[1:]], graph.frame_radius[tr.frames_b[1:]])
+    rad = track_radius(graph, tr)[1:]
     return frames, tr.root[1:, :2], rad
 
 
@@ -222,7 +228,7 @@ class _Context:
     log: object
 
     def cylinders(self, track):
-        rad = np.maximum(self.graph.frame_radius[track.frames_a], self.graph.frame_radius[track.frames_b])
+        rad = track_radius(self.graph, track)
         return np.arange(len(track)), track.root[:, :2], rad
 
     def insert(self, ci, track):
@@ -383,9 +389,8 @@ def _idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:
     """About ``seconds`` of idling at ``cfg`` (:func:`idle_track`) in whole repeats of its
     loop clip, so that the last frame is back on ``cfg``'s node and configuration; its clock
     starts at ``cfg.frame``."""
-    g = graph
-    e = _idle_loop(g, cfg.node)                 # the clip idle_track repeats
-    step = int(g.edge_start[e + 1] - g.edge_start[e]) - 1
+    e = _idle_loop(graph, cfg.node)             # the clip idle_track repeats
+    step = int(graph.edge_start[e + 1] - graph.edge_start[e]) - 1
     n = 1 + max(1, int(round(seconds * fps / step))) * step
     tr = idle_track(lib, cfg, n)
     tr.start_frame = cfg.frame
@@ -443,7 +448,7 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
             for d in params.depart_delays:
                 idle = _idle_for(lib, graph, cfg, d, fps)
                 frames = cfg.frame + np.arange(len(idle))
-                rad = np.maximum(graph.frame_radius[idle.frames_a], graph.frame_radius[idle.frames_b]) + params.margin
+                rad = track_radius(graph, idle) + params.margin
                 if np.asarray(index.overlaps(frames, idle.root[:, :2], rad), dtype=bool).any():
                     break           # someone passes where it stands: waiting longer will not help
                 later = Config(cfg.node, cfg.x, cfg.z, cfg.heading, int(frames[-1]))
