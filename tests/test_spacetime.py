@@ -1,5 +1,6 @@
 import numpy as np
 
+from runtime.crowd import spacetime
 from runtime.crowd.spacetime import SpaceTimeIndex
 
 
@@ -38,8 +39,14 @@ def test_matches_brute_force_through_removals_and_merges():
         qp = rng.uniform(-6, 6, (50, 2))
         qr = rng.uniform(0.2, 0.6, 50)
         ign = int(rng.integers(0, 12))
-        np.testing.assert_array_equal(idx.overlaps(qf, qp, qr, margin=0.02, ignore_owner=ign),
-                                      brute(stored, qf, qp, qr, 0.02, ign))
+        want = brute(stored, qf, qp, qr, 0.02, ign)
+        np.testing.assert_array_equal(idx.overlaps(qf, qp, qr, margin=0.02, ignore_owner=ign), want)
+        assert idx.overlaps(qf, qp, qr, margin=0.02, ignore_owner=ign, first_only=True) == bool(want.any())
+        # the compiled query (numba) and the numpy walk find the same (sample, owner) pairs
+        pairs = [sorted(zip(*[a.tolist() for a in idx._hits(qf, qp, qr, 0.02, ign, compiled=c)]))
+                 for c in ((False, True) if spacetime._nb is not None else (False,))]
+        assert pairs[0] == pairs[-1]
+        assert sorted({q for q, _ in pairs[0]}) == np.flatnonzero(want).tolist()
     # compactions keep the stored rows within twice the live ones plus the last batch
     live = sum(len(f) for f, _, _ in stored.values())
     assert idx.count <= max(SpaceTimeIndex.MIN_CAPACITY, 2 * live + 80)

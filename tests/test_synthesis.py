@@ -207,6 +207,36 @@ def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
         np.testing.assert_array_equal(j1, j0)
 
 
+def test_compiled_seed_lookahead_makes_the_numpy_seeds(default_graph):
+    """The greedy seed planner (section 3.2) with its two-edge lookahead compiled (numba) walks
+    the same edges as with the numpy passes: forward and time-reversed, to a point, to a point
+    and heading (the final approach), along a bent way-point path, timed and untimed."""
+    from runtime.crowd import search_kernels
+    from runtime.motion.graph import STATES
+    if not search_kernels.AVAILABLE:
+        pytest.skip("numba is not installed: only the numpy path exists")
+    g = default_graph
+    planner = SegmentPlanner(MotionLibrary(g))
+    walking = STATES.index("walking")
+    rng = np.random.default_rng(5)
+    nodes = np.flatnonzero(g.node_state == walking)
+    cases = 0
+    for k in range(12):
+        node = int(rng.choice(nodes))
+        start = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi)])
+        wps = np.concatenate([start[None, :2], rng.uniform(-8, 8, (1 + k % 3, 2))])
+        heading = None if k % 2 else float(rng.uniform(-np.pi, np.pi))
+        budget = None if k % 4 < 2 else 12.0
+        seeds = []
+        for compiled in (True, False):
+            planner.compiled = compiled
+            seeds.append(planner.greedy(node, start, 0, wps, heading, walking, None, bool(k % 3 == 1),
+                                        np.random.default_rng(0), time_budget=budget))
+        assert seeds[0] == seeds[1]
+        cases += len(seeds[0][0]) > 3
+    assert cases >= 8          # the seeds walk somewhere
+
+
 def test_seeds_do_not_wait_for_a_wall(default_graph):
     """A seed blocked by planned characters waits on an idle clip for them to pass; blocked by a
     static obstacle in the same place it does not (waiting cannot move a wall)."""
@@ -254,10 +284,10 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
     real = sched._plan_character
     calls = []
 
-    def fake(*args):
+    def fake(*args, **kw):
         node = args[12]          # (sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng)
-        calls.append(node)
-        out = real(*args)
+        calls.append((node, kw.get("retry")))
+        out = real(*args, **kw)
         return out if len(calls) > 1 else out[:3] + (["forced warning"], out[4])
 
     monkeypatch.setattr(sched, "_plan_character", fake)
@@ -265,8 +295,25 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
                          "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
                                         "goal": [{"position": [0.0, 4.0]}]}]})
     res = plan_scenario(sc, default_graph)
-    assert len(calls) == 2 and calls[0] != calls[1]
+    assert len(calls) == 2 and calls[0][0] != calls[1][0]
+    assert [r for _, r in calls] == [False, True]          # the second is a retry
     assert res.characters[0].warnings == []
+
+
+def test_further_tries_at_a_failed_segment_get_retry_n_max_iterations(default_graph):
+    """A segment that cannot meet eps (a tolerance no motion meets) searches n_max iterations
+    from the first start node; the try from the other start node gets retry_n_max, and every
+    repair pass retry_n_max per start node."""
+    for passes, want in ((1, 40 + 15), (2, 40 + 15 + 2 * 15)):
+        sc = parse_scenario({"name": "one", "duration": 8.0, "seed": 0,
+                             "synthesis": {"passes": passes, "epsilon": [1e-7, 1e-5, 1e-7]},
+                             "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0,
+                                                                    "pose": "stand"},
+                                            "goal": [{"position": [0.0, 4.0]}]}]})
+        prm = SynthesisParams(eps=sc.epsilon, n_max=40, retry_n_max=15)
+        res = plan_scenario(sc, default_graph, params=prm)
+        assert res.characters[0].warnings
+        assert res.characters[0].iterations == want
 
 
 def test_change_time_is_the_quickest_state_change(default_graph):
@@ -483,9 +530,9 @@ def test_a_character_with_time_to_wait_starts_on_a_still_node(default_graph, mon
     first = {}
     real = sched._plan_character
 
-    def spy(*args):
+    def spy(*args, **kw):
         first.setdefault(args[0].characters[args[11]].name, args[12])
-        return real(*args)
+        return real(*args, **kw)
 
     monkeypatch.setattr(sched, "_plan_character", spy)
 
@@ -552,6 +599,41 @@ def test_a_seated_character_holds_its_seat_until_it_is_planned(default_graph):
     assert rep["summary"]["character_overlap_pairs"] == 0 and not res.characters[1].warnings
 
 
+def test_the_final_test_finds_the_first_collision_and_collides_early_uses_it(default_graph):
+    """final_collision returns the first output frame whose cylinder hits a planned character
+    (the compiled index stops at it), one past the motion when only the held end position is
+    hit, else None; _collides_early compares that frame with the limit."""
+    from runtime.crowd.scheduler import _collides_early
+    from runtime.crowd.spacetime import SpaceTimeIndex
+    from runtime.crowd.synthesis import SegmentResult
+    g = default_graph
+    m = 90
+    root = np.zeros((m, 3))
+    root[:, 1] = np.linspace(0.0, 3.0, m)            # walks 3 m along +z from frame 100
+    fa = np.full(m, int(np.argmin(g.frame_radius)))
+    res = SegmentResult(True, fa, fa, np.zeros(m), root, 100, Config(0, 0.0, 3.0, 0.0, 100 + m - 1), 0.0,
+                        (0.0, 0.0, 0.0), 0, [])
+    idx = SpaceTimeIndex(cell=1.6)
+    planner = SegmentPlanner(MotionLibrary(g), collide=lambda f, xz, r: idx.overlaps(f, xz, r),
+                             collide_first=lambda f, xz, r: idx.first_overlap(f, xz, r))
+    assert planner.final_collision(res, 0) is None and not _collides_early(planner, res, 60)
+    idx.insert(7, np.arange(100, 400), np.tile([[0.0, 3.0]], (300, 1)), 0.3)   # stands at the end
+    planner.hold = lambda r: (np.arange(r.start_frame + m, r.start_frame + m + 30), np.tile(r.root[-1:, :2], (30, 1)),
+                              np.full(30, 0.3))
+    first = planner.final_collision(res, 0)
+    d = 3.0 - root[:, 1]
+    rad = g.frame_radius[fa[0]] + planner.p.margin + 0.3
+    assert first == int(np.flatnonzero(d < rad)[0]) > 40          # the first frame within reach of it
+    assert _collides_early(planner, res, first + 1) and not _collides_early(planner, res, first)
+    # the same through the fallback (first sample of the boolean collide) and the numpy walk
+    plain = SegmentPlanner(MotionLibrary(g), collide=lambda f, xz, r: idx.overlaps(f, xz, r))
+    assert plain.final_collision(res, 0) == first
+    idx.remove_owner(7)
+    idx.insert(8, np.arange(100 + m, 400), np.tile([[0.0, 3.0]], (300 - m, 1)), 0.3)   # comes after it arrives
+    assert planner.final_collision(res, 0) == m                    # only the held position is hit
+    assert not _collides_early(planner, res, 10 * m)
+
+
 def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, monkeypatch):
     """When every motion to an untimed goal runs into characters planned earlier, the scheduler
     puts the start off (``depart_delays``): the character stands at its start, on its still
@@ -563,9 +645,9 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     real = synth.SegmentPlanner.run
     starts = []
 
-    def run(self, start, goal, rng, owner=-1, name=""):
+    def run(self, start, goal, rng, owner=-1, name="", **kw):
         starts.append(start.frame)
-        res = yield from real(self, start, goal, rng, owner, name)
+        res = yield from real(self, start, goal, rng, owner, name, **kw)
         if start.frame == 0:
             res.warning, res.collided = "forced collision", True
         return res

@@ -190,10 +190,14 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
             ctx.index.insert(ci, np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0),
                              _seated_radius(graph))
     results: dict[int, CharacterResult] = {}
+    timing = _timing(sc)
     for ci in order:
         ctx.index.remove_owner(ci)          # its seat hold (if any) gives way to its plan
         results[ci] = _plan_one(ctx, results, ci, 0)
-        ctx.insert(ci, results[ci].track)
+        if not (params.defer_failed and results[ci].warnings and passes > 1 and ci not in timing):
+            ctx.insert(ci, results[ci].track)
+        # (a deferred character -- left with warnings, its fallback walking through everyone -- is
+        # no obstacle to those after it; the first repair pass plans it again against them all)
         if progress:
             progress(1)
     k = 1
@@ -260,7 +264,7 @@ def _plan_one(ctx: _Context, results, ci: int, k: int, attempt: int = 0) -> Char
             extra = [a, attempt]
         rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + extra)
         out = _plan_character(sc, graph, ctx.env, ctx.roadmap, params, ctx.lib, ctx.fps, ctx.n_total, ctx.static,
-                              ctx.index, results, ci, node, rng, ctx.still)
+                              ctx.index, results, ci, node, rng, ctx.still, retry=bool(a or attempt))
         iters += out[4]
         if best is None or len(out[3]) < len(best[3]):
             best = out
@@ -315,12 +319,18 @@ def _time_to_wait(c, params) -> bool:
     return c.goals[0].time[0] - d / WALK_SPEED > params.wait_slack
 
 
+def _timing(sc) -> set:
+    """Indices of the characters whose arrivals time others' goals (``after``): they are
+    planned once, in the first pass, and are never deferred or re-planned."""
+    return {sc.characters.index(sc.character(g.after["character"]))
+            for c in sc.characters for g in c.goals if g.after is not None}
+
+
 def _repair(ctx: _Context, results: dict, failed: list, k: int) -> None:
     """One repair pass over ``failed`` (see :func:`plan_scenario`); updates ``results`` and
     the index in place."""
     sc, index = ctx.sc, ctx.index
-    timing = {sc.characters.index(sc.character(g.after["character"]))
-              for c in sc.characters for g in c.goals if g.after is not None}
+    timing = _timing(sc)
 
     def spent(r, *others):
         r.seconds += sum(o.seconds for o in others)
@@ -398,13 +408,18 @@ def _idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:
 
 
 def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng,
-                    still=None):
+                    still=None, retry: bool = False):
     """All goals of character ``ci`` from start node ``node`` against the characters in
-    ``index``: (track over the whole scenario, arrival frames, goals, warnings, iterations)."""
+    ``index``: (track over the whole scenario, arrival frames, goals, warnings, iterations).
+    Each segment's search gets ``params.n_max`` iterations (``retry``: this is a further try
+    at the character -- the other start node, a repair pass -- and gets ``retry_n_max``); the
+    further tries below (a later arrival, a later departure) get ``retry_n_max``."""
+    n_retry = min(params.retry_n_max, params.n_max)
     c = sc.characters[ci]
     owner = ci
     planner = SegmentPlanner(lib, static=static,
                              collide=lambda f, xz, r: index.overlaps(f, xz, r),
+                             collide_first=lambda f, xz, r: index.first_overlap(f, xz, r),
                              roadmap=roadmap, env=env, params=params)
     cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
     parts = []
@@ -428,7 +443,8 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
         goals.append(goal)
         # after its last goal a character stands there to the end: that must be clear too
         planner.hold = (lambda r: _hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None
-        res = run_to_completion(planner.run(cfg, goal, rng, owner, name=f"{c.name} goal {gi}"))
+        res = run_to_completion(planner.run(cfg, goal, rng, owner, name=f"{c.name} goal {gi}",
+                                            n_max=n_retry if retry else None))
         iters += res.iterations
         if res.warning and planner.hold is not None and goal.window is None:
             # the motion is clear but standing at the goal afterwards is in the way of a
@@ -436,7 +452,7 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
             late = _clear_after(planner, res, index)
             if late is not None and late < n_total - 2 * fps:
                 g2 = Goal(goal.position, goal.heading, goal.nodes, (late / fps, late / fps + 1.5), label=goal.label)
-                res2 = run_to_completion(planner.run(cfg, g2, rng, owner, name=f"{c.name} goal {gi}"))
+                res2 = run_to_completion(planner.run(cfg, g2, rng, owner, name=f"{c.name} goal {gi}", n_max=n_retry))
                 iters += res2.iterations
                 if not res2.warning:
                     res = res2
@@ -452,7 +468,8 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
                 if np.asarray(index.overlaps(frames, idle.root[:, :2], rad), dtype=bool).any():
                     break           # someone passes where it stands: waiting longer will not help
                 later = Config(cfg.node, cfg.x, cfg.z, cfg.heading, int(frames[-1]))
-                res2 = run_to_completion(planner.run(later, goal, rng, owner, name=f"{c.name} goal {gi}"))
+                res2 = run_to_completion(planner.run(later, goal, rng, owner, name=f"{c.name} goal {gi}",
+                                                     n_max=n_retry))
                 iters += res2.iterations
                 if not res2.warning:
                     parts.append(idle)

@@ -24,7 +24,7 @@ except Exception:
     _nb = None
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "pair_costs"]
+__all__ = ["AVAILABLE", "pair_costs", "lookahead_errors"]
 
 if AVAILABLE:
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
@@ -142,3 +142,81 @@ def pair_costs(F, nf, B, nb, disp, dur, edge_src, edge_dst, start, goal, start_n
                 np.asarray(goal, np.float64), int(start_node), int(goal_node), float(a1), float(a2),
                 window_rel is not None, w0, w1, best, bi, bj)
     return best, bi, bj
+
+
+if AVAILABLE:
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _wrap(a):  # pragma: no cover - compiled
+        return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _err(x, z, h, tp0, tp1, final, has_fh, fh, face_w, face_off, approach, a1):  # pragma: no cover
+        dx = tp0 - x
+        dz = tp1 - z
+        e = np.hypot(dx, dz)
+        if final and has_fh and e < approach:
+            return e + a1 * abs(_wrap(h - fh))         # near the goal: its heading counts instead
+        facing = face_w * abs(_wrap(h + face_off - np.arctan2(dx, dz))) * min(e, 1.0)
+        if final and has_fh:
+            return e + (a1 * np.pi + facing)
+        return e + facing
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _lookahead_errors(cfg, disp_out, comb, dur_out, dur2, tp0, tp1, final, has_fh, fh, face_w, face_off,
+                          approach, a1, e, span, end_xz, ends):  # pragma: no cover - compiled
+        d1, d2 = dur2.shape
+        cx, cz, h = cfg[0], cfg[1], cfg[2]
+        ch, sh = np.cos(h), np.sin(h)
+        for r in range(d1):
+            x = cx + ch * disp_out[r, 0] + sh * disp_out[r, 1]
+            z = cz - sh * disp_out[r, 0] + ch * disp_out[r, 1]
+            hh = h + disp_out[r, 2]
+            ends[r, 0] = x
+            ends[r, 1] = z
+            ends[r, 2] = hh
+            e1 = _err(x, z, hh, tp0, tp1, final, has_fh, fh, face_w, face_off, approach, a1)
+            best2 = np.inf
+            k2 = 0
+            bx = bz = 0.0
+            for k in range(d2):
+                if np.isnan(comb[r, k, 0]):
+                    continue                            # padding: fewer continuations here
+                x2 = cx + ch * comb[r, k, 0] + sh * comb[r, k, 1]
+                z2 = cz - sh * comb[r, k, 0] + ch * comb[r, k, 1]
+                v = _err(x2, z2, h + comb[r, k, 2], tp0, tp1, final, has_fh, fh, face_w, face_off, approach, a1)
+                if np.isnan(v):
+                    v = np.inf
+                if v < best2:
+                    best2 = v
+                    k2 = k
+                    bx = x2
+                    bz = z2
+            if best2 < e1:
+                e[r] = best2
+                span[r] = dur_out[r] + dur2[r, k2]
+                end_xz[r, 0] = bx
+                end_xz[r, 1] = bz
+            else:
+                e[r] = e1
+                span[r] = dur_out[r]
+                end_xz[r, 0] = x
+                end_xz[r, 1] = z
+        return _err(cx, cz, h, tp0, tp1, final, has_fh, fh, face_w, face_off, approach, a1)
+
+
+def lookahead_errors(cfg, disp_out, comb, dur_out, dur2, tp, final, final_heading, face_w, face_off, approach, a1):
+    """One step of the greedy seed planner's two-edge lookahead (paper 000, section 3.2),
+    compiled: for each out-edge, the error to the target after it or after the best
+    continuation (whichever is lower), the seconds that takes, where it ends, and the error
+    now. Returns (e (d1,), span (d1,), end_xz (d1, 2), ends (d1, 3), cur) -- the numpy path of
+    :meth:`SegmentPlanner.greedy_steps` computes the same (``tests/test_synthesis.py``)."""
+    d1 = len(dur_out)
+    e = np.empty(d1)
+    span = np.empty(d1)
+    end_xz = np.empty((d1, 2))
+    ends = np.empty((d1, 3))
+    cur = _lookahead_errors(np.asarray(cfg, np.float64), disp_out, comb, dur_out, dur2, float(tp[0]), float(tp[1]),
+                            bool(final), final_heading is not None,
+                            0.0 if final_heading is None else float(final_heading), float(face_w), float(face_off),
+                            float(approach), float(a1), e, span, end_xz, ends)
+    return e, span, end_xz, ends, cur

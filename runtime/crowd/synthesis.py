@@ -57,8 +57,11 @@ def compose(c, d):
     h = c[..., 2]
     ch, sh = np.cos(h), np.sin(h)
     x = c[..., 0] + ch * d[..., 0] + sh * d[..., 1]
-    z = c[..., 1] - sh * d[..., 0] + ch * d[..., 1]
-    return np.stack([x, z, h + d[..., 2]], axis=-1)
+    out = np.empty(x.shape + (3,), dtype=np.result_type(x, h, d))
+    out[..., 0] = x
+    out[..., 1] = c[..., 1] - sh * d[..., 0] + ch * d[..., 1]
+    out[..., 2] = h + d[..., 2]
+    return out
 
 
 def compose_inverse(c_end, d):
@@ -78,6 +81,9 @@ class SynthesisParams:
     n_m: int = 200                 # perturbed pairs per iteration
     k_m: int = 30                  # pairs kept between iterations
     n_max: int = 1000              # iterations before giving up (warning, best pair used)
+    retry_n_max: int = 300         # ... in the scheduler's further tries at a segment that failed (the
+                                   # other start node, a later departure or arrival, repair passes):
+                                   # on the 20 x 15 grid at 2.2 m, tries that succeeded took <= 228
     eps: tuple = (0.02, 2.0, 1.0 / 15.0)   # per-frame adjustment tolerance: m/s, deg/s, s/s
     sample_step: int = 3           # frames between collision samples in seeds
     margin: float = 0.02           # extra clearance (m) in collision tests
@@ -112,6 +118,9 @@ class SynthesisParams:
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all its
                                    # motions collide (scheduler; from a node where one can stand still) ...
+    defer_failed: bool = False     # a character left with warnings in the first pass is not an obstacle
+                                   # to those planned after it (its fallback walks through everyone)
+                                   # until a repair pass plans it again (scheduler)
     depart_within: float = 10.0    # ... and the first collision comes within this many s of the start
     start_still: bool | None = None  # characters start on a node of their pose where they can stand still
                                    # and wait (scheduler; the World always does). False: the pose's most
@@ -230,9 +239,9 @@ class MotionLibrary:
     def lookahead(self, reverse: bool, travel: int):
         """Per node: its out-edges inside the travel state and, for each, every two-edge
         continuation as one composed displacement, padded to a dense table
-        ``(out (d1,), comb (d1, d2, 3) NaN-padded, dur2 (d1, d2) inf-padded)``. Built once per
-        (direction, state) and cached: the greedy seed planner's lookahead is then two
-        vectorized compositions per step."""
+        ``(out (d1,), comb (d1, d2, 3) NaN-padded, dur2 (d1, d2) inf-padded, disp[out], dur[out])``.
+        Built once per (direction, state) and cached: the greedy seed planner's lookahead is
+        then two vectorized compositions per step (one compiled loop with numba)."""
         key = (bool(reverse), int(travel))
         if key in self._lookahead:
             return self._lookahead[key]
@@ -263,7 +272,7 @@ class MotionLibrary:
                 if len(e2):
                     comb[k, :len(e2)] = compose(disp[e][None], disp[e2])
                     dur2[k, :len(e2)] = self.dur[e2]
-            table.append((out, comb, dur2))
+            table.append((out, comb, dur2, np.ascontiguousarray(disp[out]), np.ascontiguousarray(self.dur[out])))
         self._lookahead[key] = table
         return table
 
@@ -300,11 +309,18 @@ class SegmentPlanner:
     distance`` against the environment (a signed distance field); both may be None."""
 
     def __init__(self, lib: MotionLibrary, static=None, collide=None, roadmap=None, env=None,
-                 params: SynthesisParams | None = None):
+                 params: SynthesisParams | None = None, collide_first=None):
         self.lib = lib
         self.g = lib.g
         self.static = static
         self.collide = collide
+        # collide_first(frames, xz, radius) -> index of the first sample that collides, or -1
+        # (the final tests need no more: the index stops at it); from ``collide`` if not given
+        if collide_first is None and collide is not None:
+            def collide_first(f, xz, r):
+                hit = np.flatnonzero(np.asarray(collide(f, xz, r), dtype=bool))
+                return int(hit[0]) if len(hit) else -1
+        self.collide_first = collide_first
         self.roadmap = roadmap
         self.env = env
         self.p = params or lib.params
@@ -312,7 +328,7 @@ class SegmentPlanner:
         # segment (its idle tail after a last goal), tested with the segment in the final test
         self.hold = None
         self.waited = 0             # waits of the last seed (greedy_steps)
-        self.compiled = _kernels.AVAILABLE      # splice costs by the numba kernel
+        self.compiled = _kernels.AVAILABLE      # splice costs and seed lookahead by the numba kernels
 
     # -- helpers -------------------------------------------------------------------------------
     def travel_state(self, start_node: int, goal: Goal) -> int:
@@ -336,7 +352,8 @@ class SegmentPlanner:
             return ok, ok.copy()
         cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
         which = np.repeat(np.arange(n), cnt)
-        sidx = np.concatenate([np.arange(lib.samp_ptr[e], lib.samp_ptr[e + 1]) for e in edges])
+        first = np.cumsum(cnt) - cnt
+        sidx = lib.samp_ptr[edges][which] + (np.arange(int(cnt.sum())) - first[which])
         gf = lib.samp_frame[sidx]
         local = np.stack([self.g.frame_xz[gf, 0], self.g.frame_xz[gf, 1], self.g.frame_heading[gf]], axis=1)
         world = compose(cfgs[which], local)
@@ -579,22 +596,26 @@ class SegmentPlanner:
         turn_rate = float(np.max(np.abs(disp[in_travel, 2]) / lib.dur[in_travel])) if in_travel.any() else 1.0
         while len(edges) - idled < self.p.max_seed_edges:
             final = place_carrot()
-            out, comb, dur2 = table[node]
+            out, comb, dur2, disp_out, dur_out = table[node]
             if len(out) == 0:
                 break
-            ends = compose(cfg[None], disp[out])
             # lookahead: the best error reachable with one more edge after each candidate
-            ends2 = compose(cfg[None, None], comb)
-            e2 = np.nan_to_num(err(ends2, final), nan=np.inf)
-            k2 = np.argmin(e2, axis=1)
-            rows = np.arange(len(out))
-            best2 = e2[rows, k2]
-            e1 = err(ends, final)
-            use2 = best2 < e1
-            e = np.where(use2, best2, e1)
-            span = lib.dur[out] + np.where(use2, dur2[rows, k2], 0.0)
-            end_xz = np.where(use2[:, None], ends2[rows, k2, :2], ends[:, :2])
-            cur = float(err(cfg, final))
+            if self.compiled:
+                e, span, end_xz, ends, cur = _kernels.lookahead_errors(
+                    cfg, disp_out, comb, dur_out, dur2, tp, final, final_heading, face_w, face_off, approach, a1)
+            else:
+                ends = compose(cfg[None], disp_out)
+                ends2 = compose(cfg[None, None], comb)
+                e2 = np.nan_to_num(err(ends2, final), nan=np.inf)
+                k2 = np.argmin(e2, axis=1)
+                rows = np.arange(len(out))
+                best2 = e2[rows, k2]
+                e1 = err(ends, final)
+                use2 = best2 < e1
+                e = np.where(use2, best2, e1)
+                span = dur_out + np.where(use2, dur2[rows, k2], 0.0)
+                end_xz = np.where(use2[:, None], ends2[rows, k2, :2], ends[:, :2])
+                cur = float(err(cfg, final))
             if time_budget is not None:
                 remaining = float(np.hypot(cfg[0] - tp[0], cfg[1] - tp[1])) + (0.0 if final else total - min(s_proj + ahead, total))
                 # facing away from the target, turning round takes time too (walking on while
@@ -670,9 +691,9 @@ class SegmentPlanner:
                     a_now = float(ang(cfg))
                     if a_now > np.pi / 3:
                         # with the lookahead: the best angle one more edge can reach
-                        a2 = np.nan_to_num(ang(ends2), nan=np.inf)
+                        a2 = np.nan_to_num(ang(compose(cfg[None, None], comb)), nan=np.inf)
                         k2t = np.argmin(a2, axis=1)
-                        a_new = np.minimum(ang(ends), a2[rows, k2t])
+                        a_new = np.minimum(ang(ends), a2[np.arange(len(out)), k2t])
                         score = a_new + 0.3 * np.hypot(ends[:, 0] - tp[0], ends[:, 1] - tp[1])
                         turning = np.flatnonzero(a_new < a_now - 0.1)
                         alt = first_ok(out[turning[np.argsort(score[turning], kind="stable")][:24]])
@@ -908,8 +929,10 @@ class SegmentPlanner:
         return np.concatenate([origin[None]] * (dep is not None) + [path] + [gxz[None]] * (via is not None))
 
     # -- the whole segment ------------------------------------------------------------------------------
-    def run(self, start: Config, goal: Goal, rng: np.random.Generator, owner: int = -1, name: str = ""):
+    def run(self, start: Config, goal: Goal, rng: np.random.Generator, owner: int = -1, name: str = "",
+            n_max: int | None = None):
         """Generator: yields after each bounded step; returns a :class:`SegmentResult`.
+        ``n_max``: the iteration limit (default ``params.n_max``).
 
         Seeds are made from the roadmap's way points; the randomized search then runs on them.
         When the search keeps finding splices below eps that collide with characters already
@@ -918,6 +941,7 @@ class SegmentPlanner:
         iterations of all attempts count against N_max.
         """
         g, lib, p = self.g, self.lib, self.p
+        n_max = p.n_max if n_max is None else int(n_max)
         travel = self.travel_state(start.node, goal)
         base = self.waypoints(start, goal)
         yield
@@ -947,8 +971,8 @@ class SegmentPlanner:
         best_overall = None
         result = None
         goal_node = goal_cfg = None
-        per_attempt = max(60, p.n_max // 6)
-        while result is None and iterations < p.n_max and queue:
+        per_attempt = max(60, p.n_max // 6)     # reseeds at the same points whatever the limit
+        while result is None and iterations < n_max and queue:
             wps = queue.pop(0)
             F0, f_end = yield from self.greedy_steps(start.node, start.xzh, start.frame, wps, goal.heading, travel,
                                                      tgt, False, rng, time_budget=budget, reserve=reserve_f)
@@ -986,7 +1010,7 @@ class SegmentPlanner:
             B0 = B0r[::-1]
             yield
             out = yield from self._search(start, goal_cfg, goal_node, F0, B0, window_rel, travel, owner, rng,
-                                          min(per_attempt, p.n_max - iterations))
+                                          min(per_attempt, n_max - iterations))
             res, its, best, collision_at = out
             iterations += its
             if best is not None and (best_overall is None or best[0] < best_overall[0]):
@@ -1068,7 +1092,7 @@ class SegmentPlanner:
                          if lo_m <= m <= hi_m][:p.retime_tries]
                 rs = [r for r in self.splice(start, goal_cfg, goal_node, Frow, i, Brow, j, window_rel, travel,
                                              frames=cands) if r is not None and within_eps(r)] if cands else []
-                for r2 in self._clear_motions(rs):
+                for r2 in rs:
                     if self.final_collision(r2, owner) is None:
                         r2.cost = float(cost)
                         return r2
@@ -1363,49 +1387,33 @@ class SegmentPlanner:
             tgt_rows[:, c] = grid[:, q]
         return Fs, Bs
 
-    def _clear_motions(self, results: list) -> list:
-        """The results whose own frames are clear of obstacles and planned characters, in
-        order (one vectorized test over all of them; :meth:`final_collision` per result)."""
-        if not results:
-            return []
-        lens = [len(r.root) for r in results]
-        bad = self._motion_hits(results)
-        any_bad = np.logical_or.reduceat(bad, np.concatenate([[0], np.cumsum(lens)[:-1]]))
-        return [r for r, b in zip(results, any_bad) if not b]
-
-    def _motion_hits(self, results: list) -> np.ndarray:
-        """Per output frame of ``results`` (concatenated): whether its bounding cylinder
-        (plus ``margin``) hits an obstacle or a planned character."""
-        g, p = self.g, self.p
-        frames = np.concatenate([r.start_frame + np.arange(len(r.root)) for r in results])
-        xz = np.concatenate([r.root[:, :2] for r in results])
-        rad = np.concatenate([np.maximum(g.frame_radius[r.frames_a], g.frame_radius[r.frames_b])
-                              for r in results]).astype(np.float64) + p.margin
-        bad = np.zeros(len(xz), dtype=bool)
+    def _first_hit(self, frames, xz, rad) -> int:
+        """Index of the first sample whose cylinder (``rad`` includes the margin) hits an
+        obstacle or a planned character, or -1."""
+        first = len(xz)
+        rad = np.broadcast_to(rad, (first,))
         if self.static is not None:
-            bad |= self.static(xz) < rad
-        if self.collide is not None:
-            bad |= np.asarray(self.collide(frames, xz, rad), dtype=bool)
-        return bad
+            hit = np.flatnonzero(self.static(xz) < rad)
+            first = int(hit[0]) if len(hit) else first
+        if self.collide_first is not None and first:
+            k = self.collide_first(frames[:first], xz[:first], rad[:first])
+            first = k if k >= 0 else first
+        return first if first < len(xz) else -1
 
     def final_collision(self, res: SegmentResult, owner: int):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,
         or None (the final test of section 3.3); ``len(res.root)`` when the motion is clear but
         standing at its end afterwards (:attr:`hold`) would be in someone's way."""
-        p = self.p
-        hit = np.flatnonzero(self._motion_hits([res]))
-        if len(hit):
-            return int(hit[0])
+        g, p = self.g, self.p
+        rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
+        hit = self._first_hit(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
+        if hit >= 0:
+            return hit
         if self.hold is not None:
             tail = self.hold(res)
             if tail is not None and len(tail[0]):
                 f2, xz2, r2 = tail
                 r2 = np.asarray(r2, dtype=np.float64) + p.margin
-                bad2 = np.zeros(len(xz2), dtype=bool)
-                if self.static is not None:
-                    bad2 |= self.static(xz2) < r2
-                if self.collide is not None:
-                    bad2 |= np.asarray(self.collide(f2, xz2, r2), dtype=bool)
-                if bad2.any():
+                if self._first_hit(np.asarray(f2), np.asarray(xz2, dtype=np.float64), r2) >= 0:
                     return len(res.root)
         return None
