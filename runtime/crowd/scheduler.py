@@ -190,14 +190,10 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
             ctx.index.insert(ci, np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0),
                              _seated_radius(graph))
     results: dict[int, CharacterResult] = {}
-    timing = _timing(sc)
     for ci in order:
         ctx.index.remove_owner(ci)          # its seat hold (if any) gives way to its plan
         results[ci] = _plan_one(ctx, results, ci, 0)
-        if not (params.defer_failed and results[ci].warnings and passes > 1 and ci not in timing):
-            ctx.insert(ci, results[ci].track)
-        # (a deferred character -- left with warnings, its fallback walking through everyone -- is
-        # no obstacle to those after it; the first repair pass plans it again against them all)
+        ctx.insert(ci, results[ci].track)
         if progress:
             progress(1)
     k = 1
@@ -321,7 +317,7 @@ def _time_to_wait(c, params) -> bool:
 
 def _timing(sc) -> set:
     """Indices of the characters whose arrivals time others' goals (``after``): they are
-    planned once, in the first pass, and are never deferred or re-planned."""
+    planned once, in the first pass, and never re-planned."""
     return {sc.characters.index(sc.character(g.after["character"]))
             for c in sc.characters for g in c.goals if g.after is not None}
 

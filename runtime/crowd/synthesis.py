@@ -118,9 +118,6 @@ class SynthesisParams:
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all its
                                    # motions collide (scheduler; from a node where one can stand still) ...
-    defer_failed: bool = False     # a character left with warnings in the first pass is not an obstacle
-                                   # to those planned after it (its fallback walks through everyone)
-                                   # until a repair pass plans it again (scheduler)
     depart_within: float = 10.0    # ... and the first collision comes within this many s of the start
     start_still: bool | None = None  # characters start on a node of their pose where they can stand still
                                    # and wait (scheduler; the World always does). False: the pose's most
