@@ -83,7 +83,8 @@ class SynthesisParams:
     n_max: int = 1000              # iterations before giving up (warning, best pair used)
     retry_n_max: int = 300         # ... in the scheduler's further tries at a segment that failed (the
                                    # other start node, a later departure or arrival, repair passes):
-                                   # on the 20 x 15 grid at 2.2 m, tries that succeeded took <= 228
+                                   # 20 x 15 grid at 2.2 m, first 90 characters: retries that succeeded
+                                   # took <= 228, first searches <= 546 (99% <= 373)
     eps: tuple = (0.02, 2.0, 1.0 / 15.0)   # per-frame adjustment tolerance: m/s, deg/s, s/s
     sample_step: int = 3           # frames between collision samples in seeds
     margin: float = 0.02           # extra clearance (m) in collision tests
