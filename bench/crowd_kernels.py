@@ -69,20 +69,20 @@ def main(argv=None) -> int:
     cases = []
     for name in filter(None, args.samples.split(",")):
         sc, g, env, roadmap = load_sample(ROOT / "samples" / name, log=lambda m: None, progress=False)
-        cases.append((name, sc, env, roadmap))
+        cases.append((name, sc, g, env, roadmap))      # the sample's own library
     if args.grid:
         import make_samples
         cols, rows = (int(v) for v in args.grid.lower().split("x"))
         data = make_samples.grid_scenario(cols, rows, spacing=2.2, seed=0, name=f"grid{cols}x{rows}@2.2")
         cases.append((f"grid {cols}x{rows} at 2.2 m",
-                      parse_scenario(data, "<grid>", node_labels=set(graph.node_labels_all())), None, None))
+                      parse_scenario(data, "<grid>", node_labels=set(graph.node_labels_all())), graph, None, None))
     if not search_kernels.AVAILABLE:
         print("numba is not installed: only the numpy paths exist, nothing to compare")
         return 0
     print(f"{'scenario':<24}{'characters':>11}{'numpy s':>10}{'compiled s':>12}{'ratio':>8}  same plans")
-    for name, sc, env, roadmap in cases:
-        t_np, r_np = plan(sc, graph, env, roadmap, False)
-        t_c, r_c = plan(sc, graph, env, roadmap, True)
+    for name, sc, g, env, roadmap in cases:
+        t_np, r_np = plan(sc, g, env, roadmap, False)
+        t_c, r_c = plan(sc, g, env, roadmap, True)
         print(f"{name:<24}{len(sc.characters):>11}{t_np:>10.2f}{t_c:>12.2f}{t_np / t_c:>7.2f}x  {same_plans(r_np, r_c)}",
               flush=True)
     return 0
