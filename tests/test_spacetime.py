@@ -47,6 +47,18 @@ def test_matches_brute_force_through_removals_and_merges():
                  for c in ((False, True) if spacetime._nb is not None else (False,))]
         assert pairs[0] == pairs[-1]
         assert sorted({q for q, _ in pairs[0]}) == np.flatnonzero(want).tolist()
+        # per run of consecutive samples (the seeds' candidate clips), compiled and numpy
+        cuts = np.sort(rng.choice(np.arange(1, 50), size=int(rng.integers(1, 12)), replace=False))
+        counts = np.diff(np.concatenate([[0], cuts, [50]]))
+        want_runs = np.logical_or.reduceat(want, np.cumsum(counts) - counts)
+        np.testing.assert_array_equal(idx.any_overlap_runs(qf, qp, qr, counts, margin=0.02, ignore_owner=ign),
+                                      want_runs)
+        saved, spacetime._nb = spacetime._nb, None
+        try:
+            np.testing.assert_array_equal(idx.any_overlap_runs(qf, qp, qr, counts, margin=0.02, ignore_owner=ign),
+                                          want_runs)
+        finally:
+            spacetime._nb = saved
     # compactions keep the stored rows within twice the live ones plus the last batch
     live = sum(len(f) for f, _, _ in stored.values())
     assert idx.count <= max(SpaceTimeIndex.MIN_CAPACITY, 2 * live + 80)

@@ -237,6 +237,48 @@ def test_compiled_seed_lookahead_makes_the_numpy_seeds(default_graph):
     assert cases >= 8          # the seeds walk somewhere
 
 
+def test_compiled_clear_test_makes_the_numpy_seeds_among_characters_and_obstacles(default_graph):
+    """The seeds' clear test of candidate clips, compiled (one gather of their collision
+    samples, the index query stopping each clip at its first hit), walks the same seeds as the
+    numpy gather and per-sample query, with planned characters and a static obstacle in the
+    way -- which change the seeds (the test is not vacuous)."""
+    from runtime.crowd import search_kernels
+    from runtime.crowd.spacetime import SpaceTimeIndex
+    from runtime.motion.graph import STATES
+    if not search_kernels.AVAILABLE:
+        pytest.skip("numba is not installed: only the numpy path exists")
+    g = default_graph
+    lib = MotionLibrary(g)
+    rng = np.random.default_rng(11)
+    index = SpaceTimeIndex(cell=2 * lib.max_radius + 0.1)
+    f = np.arange(0, 600)
+    for o in range(6):                 # characters walking across the field, one per lane
+        x0, z0 = rng.uniform(-1, 1), rng.uniform(1, 7)
+        index.insert(o, f, np.stack([x0 - 4 + f * 0.03, np.full(len(f), z0)], axis=1), np.full(len(f), 0.35))
+    for o in range(6, 9):              # and some standing in the way
+        index.insert(o, f, np.broadcast_to([rng.uniform(-1.5, 1.5), 2.0 * (o - 5)], (len(f), 2)), np.full(len(f), 0.35))
+
+    def static(xz):
+        return np.hypot(xz[:, 0] - 0.5, xz[:, 1] - 4.0) - 0.6
+
+    walking = STATES.index("walking")
+    nodes = np.flatnonzero(g.node_state == walking)
+    changed = 0
+    for k in range(10):
+        node = int(rng.choice(nodes))
+        start = np.array([rng.uniform(-1, 1), 0.0, rng.uniform(-0.5, 0.5)])
+        wps = np.array([start[:2], [rng.uniform(-2, 2), 8.0]])
+        seeds = []
+        for compiled, runs, coll in ((True, True, True), (False, False, True), (True, True, False)):
+            planner = SegmentPlanner(lib, static=static, collide=index.overlaps if coll else None,
+                                     collide_runs=index.any_overlap_runs if runs and coll else None)
+            planner.compiled = compiled
+            seeds.append(planner.greedy(node, start, 0, wps, None, walking, None, False, np.random.default_rng(0)))
+        assert seeds[0] == seeds[1]
+        changed += seeds[0] != seeds[2]
+    assert changed >= 3
+
+
 def test_seeds_do_not_wait_for_a_wall(default_graph):
     """A seed blocked by planned characters waits on an idle clip for them to pass; blocked by a
     static obstacle in the same place it does not (waiting cannot move a wall)."""

@@ -416,6 +416,7 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
     planner = SegmentPlanner(lib, static=static,
                              collide=lambda f, xz, r: index.overlaps(f, xz, r),
                              collide_first=lambda f, xz, r: index.first_overlap(f, xz, r),
+                             collide_runs=lambda f, xz, r, cnt: index.any_overlap_runs(f, xz, r, cnt),
                              roadmap=roadmap, env=env, params=params)
     cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
     parts = []

@@ -24,7 +24,7 @@ except Exception:
     _nb = None
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "pair_costs", "lookahead_errors"]
+__all__ = ["AVAILABLE", "pair_costs", "lookahead_errors", "edge_samples"]
 
 if AVAILABLE:
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
@@ -183,6 +183,12 @@ if AVAILABLE:
                     continue                            # padding: fewer continuations here
                 x2 = cx + ch * comb[r, k, 0] + sh * comb[r, k, 1]
                 z2 = cz - sh * comb[r, k, 0] + ch * comb[r, k, 1]
+                # the error is this distance plus terms >= 0: a continuation that cannot beat
+                # the row's best so far, nor the single edge, changes nothing (squared, with a
+                # margin far above rounding)
+                lim = min(best2, e1)
+                if (tp0 - x2) * (tp0 - x2) + (tp1 - z2) * (tp1 - z2) > lim * lim * (1.0 + 1e-9):
+                    continue
                 v = _err(x2, z2, h + comb[r, k, 2], tp0, tp1, final, has_fh, fh, face_w, face_off, approach, a1)
                 if np.isnan(v):
                     v = np.inf
@@ -220,3 +226,40 @@ def lookahead_errors(cfg, disp_out, comb, dur_out, dur2, tp, final, final_headin
                             0.0 if final_heading is None else float(final_heading), float(face_w), float(face_off),
                             float(approach), float(a1), e, span, end_xz, ends)
     return e, span, end_xz, ends, cur
+
+
+if AVAILABLE:
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _edge_samples(edges, cfg, frames0, samp_ptr, samp_frame, samp_off, frame_xz, frame_heading, frame_radius,
+                      margin, xz, rad, frames):  # pragma: no cover - compiled
+        ch, sh = np.cos(cfg[2]), np.sin(cfg[2])
+        m = 0
+        for k in range(len(edges)):
+            e = edges[k]
+            for s in range(samp_ptr[e], samp_ptr[e + 1]):
+                gf = samp_frame[s]
+                lx = np.float64(frame_xz[gf, 0])
+                lz = np.float64(frame_xz[gf, 1])
+                xz[m, 0] = cfg[0] + ch * lx + sh * lz
+                xz[m, 1] = cfg[1] - sh * lx + ch * lz
+                rad[m] = np.float64(frame_radius[gf]) + margin
+                frames[m] = frames0[k] + samp_off[s]
+                m += 1
+
+
+def edge_samples(lib, edges, cfg, frames0, margin):
+    """The collision samples of candidate clips ``edges`` all placed at one configuration
+    ``cfg`` (x, z, heading), clip k starting at absolute frame ``frames0[k]``: (xz (S, 2),
+    radius + ``margin`` (S,), frames (S,), samples per clip (n,)), in clip order -- what the
+    seed planner's clear test (:meth:`SegmentPlanner._clear`) gathers with numpy, in one
+    compiled loop (same arithmetic: the planar composition of ``synthesis.compose``)."""
+    edges = np.asarray(edges, np.int64)
+    cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
+    S = int(cnt.sum())
+    xz = np.empty((S, 2))
+    rad = np.empty(S)
+    frames = np.empty(S, np.int64)
+    g = lib.g
+    _edge_samples(edges, np.asarray(cfg, np.float64), np.asarray(frames0, np.int64), lib.samp_ptr, lib.samp_frame,
+                  lib.samp_off, g.frame_xz, g.frame_heading, g.frame_radius, float(margin), xz, rad, frames)
+    return xz, rad, frames, cnt

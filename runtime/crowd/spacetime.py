@@ -89,6 +89,36 @@ if _nb is not None:
                         r = nxt[r]
         return out_q[:m], out_o[:m]
 
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _runs_hit_compiled(frames, xz, radius, margin, ignore_owner, counts, cell, keys, rows, nxt, head, version,
+                           shift, golden, out):  # pragma: no cover - compiled
+        """Per run of consecutive query samples (``counts`` long each): whether any overlaps;
+        each run stops at its first hit. Same keys, hash and test as :func:`_hits_compiled`."""
+        s0 = 0
+        for q in range(len(counts)):
+            out[q] = False
+            for s in range(s0, s0 + counts[q]):
+                ix = np.int64(np.floor(xz[s, 0] / cell))
+                iz = np.int64(np.floor(xz[s, 1] / cell))
+                for di in range(-1, 2):
+                    for dj in range(-1, 2):
+                        k = (frames[s] << (2 * _BITS)) | (((ix + di + _OFF) & _MASK) << _BITS) | ((iz + dj + _OFF) & _MASK)
+                        r = head[np.int64((np.uint64(k) * golden) >> shift)]
+                        while r >= 0 and not out[q]:
+                            if keys[r] == k:
+                                o = np.int64(rows[r, 3])
+                                if rows[r, 4] == version[o] and o != ignore_owner and \
+                                        np.hypot(rows[r, 0] - xz[s, 0], rows[r, 1] - xz[s, 1]) < rows[r, 2] + radius[s] + margin:
+                                    out[q] = True
+                            r = nxt[r]
+                        if out[q]:
+                            break
+                    if out[q]:
+                        break
+                if out[q]:
+                    break
+            s0 += counts[q]
+
 
 class SpaceTimeIndex:
     _GOLDEN = np.uint64(0x9E3779B97F4A7C15)    # Fibonacci hashing multiplier
@@ -210,6 +240,34 @@ class SpaceTimeIndex:
         q, _ = self._hits(frames, xz, radius, margin, ignore_owner, first_only=True)
         return int(q.min()) if len(q) else -1
 
+    def any_overlap_runs(self, frames: np.ndarray, xz: np.ndarray, radius: np.ndarray, counts: np.ndarray,
+                         margin: float = 0.0, ignore_owner: int | None = None) -> np.ndarray:
+        """Per run of consecutive query samples (``counts`` samples each, in order): whether
+        any of its samples overlaps a stored cylinder -- the seed planner's test of many
+        candidate clips at once. Compiled, each run stops at its first hit."""
+        counts = np.asarray(counts, dtype=np.int64)
+        frames = np.asarray(frames, dtype=np.int64)
+        xz = np.asarray(xz, dtype=np.float64)
+        radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape)
+        out = np.zeros(len(counts), dtype=bool)
+        if len(frames) == 0 or self._n == 0:
+            return out
+        if _nb is None:
+            hit = self.overlaps(frames, xz, radius, margin, ignore_owner)
+            nz = counts > 0
+            out[nz] = np.logical_or.reduceat(hit, (np.cumsum(counts) - counts)[nz])
+            return out
+        self._check_cell(radius, margin)
+        shift = np.uint64(64 - (len(self._head).bit_length() - 1))
+        _runs_hit_compiled(frames, np.ascontiguousarray(xz), np.ascontiguousarray(radius), float(margin),
+                           -1 if ignore_owner is None else int(ignore_owner), counts, self.cell, self._keys,
+                           self._rows, self._next, self._head, self._version, shift, self._GOLDEN, out)
+        return out
+
+    def _check_cell(self, radius, margin):
+        if self.cell < 2 * max(self.max_radius, float(radius.max())) + margin:
+            raise ValueError(f"space-time cell {self.cell} m is smaller than twice the largest radius plus margin")
+
     def overlapping_owners(self, frames: np.ndarray, xz: np.ndarray, radius: np.ndarray,
                            margin: float = 0.0) -> dict:
         """The stored characters the query samples overlap: {owner: samples overlapping it}."""
@@ -245,8 +303,7 @@ class SpaceTimeIndex:
         n = len(frames)
         if n == 0 or self._n == 0:
             return np.zeros(0, dtype=np.int64), np.zeros(0)
-        if self.cell < 2 * max(self.max_radius, float(radius.max())) + margin:
-            raise ValueError(f"space-time cell {self.cell} m is smaller than twice the largest radius plus margin")
+        self._check_cell(radius, margin)
         if (_nb is not None) if compiled is None else compiled:
             shift = np.uint64(64 - (len(self._head).bit_length() - 1))
             return _hits_compiled(frames, np.ascontiguousarray(xz), np.ascontiguousarray(radius), float(margin),

@@ -32,6 +32,7 @@ budget.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,7 +43,7 @@ from ..motion.graph import MotionGraph, STATES, TRANSITION
 from . import search_kernels as _kernels
 
 __all__ = ["SynthesisParams", "Config", "Goal", "SegmentResult", "MotionLibrary", "SegmentPlanner",
-           "compose", "compose_inverse", "wrap_angle"]
+           "compose", "compose1", "compose_inverse", "wrap_angle"]
 
 TWO_PI = 2.0 * np.pi
 
@@ -62,6 +63,16 @@ def compose(c, d):
     out[..., 1] = c[..., 1] - sh * d[..., 0] + ch * d[..., 1]
     out[..., 2] = h + d[..., 2]
     return out
+
+
+def compose1(c, d):
+    """:func:`compose` of one configuration and one displacement, each (3,), in scalar math
+    (the same values: the planners chain thousands of single compositions per character, and
+    a numpy call per one costs ~15 us)."""
+    h = float(c[2])
+    ch, sh = math.cos(h), math.sin(h)
+    d0, d1 = float(d[0]), float(d[1])
+    return np.array((c[0] + ch * d0 + sh * d1, c[1] - sh * d0 + ch * d1, h + d[2]))
 
 
 def compose_inverse(c_end, d):
@@ -307,7 +318,7 @@ class SegmentPlanner:
     distance`` against the environment (a signed distance field); both may be None."""
 
     def __init__(self, lib: MotionLibrary, static=None, collide=None, roadmap=None, env=None,
-                 params: SynthesisParams | None = None, collide_first=None):
+                 params: SynthesisParams | None = None, collide_first=None, collide_runs=None):
         self.lib = lib
         self.g = lib.g
         self.static = static
@@ -319,6 +330,13 @@ class SegmentPlanner:
                 hit = np.flatnonzero(np.asarray(collide(f, xz, r), dtype=bool))
                 return int(hit[0]) if len(hit) else -1
         self.collide_first = collide_first
+        # collide_runs(frames, xz, radius, counts) -> per run of ``counts`` consecutive samples,
+        # whether any collides (the seeds' test of many candidate clips); from ``collide`` if
+        # not given
+        if collide_runs is None and collide is not None:
+            def collide_runs(f, xz, r, cnt):
+                return np.logical_or.reduceat(np.asarray(collide(f, xz, r), dtype=bool), np.cumsum(cnt) - cnt)
+        self.collide_runs = collide_runs
         self.roadmap = roadmap
         self.env = env
         self.p = params or lib.params
@@ -340,39 +358,40 @@ class SegmentPlanner:
             return carrying
         return walking
 
-    def _clear(self, edges: np.ndarray, cfgs: np.ndarray, frames0: np.ndarray, moving: bool):
+    def _clear(self, edges: np.ndarray, cfg: np.ndarray, frames0: np.ndarray, moving: bool):
         """(collision-free, and also ``static_prefer`` further from static obstacles) per
-        candidate edge placement (vectorized over candidates)."""
+        candidate clip ``edges`` placed at the configuration ``cfg``, clip k starting at frame
+        ``frames0[k]`` (vectorized over candidates; one compiled gather of their collision
+        samples with numba, and the moving test stops each clip at its first hit)."""
         lib = self.lib
         n = len(edges)
         ok = np.ones(n, dtype=bool)
         if n == 0 or (self.static is None and (self.collide is None or not moving)):
             return ok, ok.copy()
-        cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
-        which = np.repeat(np.arange(n), cnt)
-        first = np.cumsum(cnt) - cnt
-        sidx = lib.samp_ptr[edges][which] + (np.arange(int(cnt.sum())) - first[which])
-        gf = lib.samp_frame[sidx]
-        local = np.stack([self.g.frame_xz[gf, 0], self.g.frame_xz[gf, 1], self.g.frame_heading[gf]], axis=1)
-        world = compose(cfgs[which], local)
-        rad = self.g.frame_radius[gf].astype(np.float64) + self.p.margin
-        bad = np.zeros(len(gf), dtype=bool)
-        near = bad
+        if self.compiled:
+            xz, rad, frames, cnt = _kernels.edge_samples(lib, edges, cfg, frames0, self.p.margin)
+        else:
+            cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
+            which = np.repeat(np.arange(n), cnt)
+            sidx = lib.samp_ptr[edges][which] + (np.arange(int(cnt.sum())) - (np.cumsum(cnt) - cnt)[which])
+            gf = lib.samp_frame[sidx]
+            local = np.stack([self.g.frame_xz[gf, 0], self.g.frame_xz[gf, 1], self.g.frame_heading[gf]], axis=1)
+            xz = compose(np.asarray(cfg, dtype=np.float64)[None], local)[:, :2]
+            rad = self.g.frame_radius[gf].astype(np.float64) + self.p.margin
+            frames = frames0[which] + lib.samp_off[sidx]
+        starts = np.cumsum(cnt) - cnt
+        roomier = ok.copy()
         if self.static is not None:
             # samples are every few frames: keep the distance a character covers between two
             # samples from obstacles too, or a seed that grazes one fails the per-frame test
-            d = self.static(world[:, :2])
-            bad |= d < rad + self.p.static_seed_margin
-            near = d < rad + self.p.static_seed_margin + self.p.static_prefer
+            d = self.static(xz)
+            ok &= ~np.logical_or.reduceat(d < rad + self.p.static_seed_margin, starts)
+            roomier &= ~np.logical_or.reduceat(d < rad + self.p.static_seed_margin + self.p.static_prefer, starts)
         if moving and self.collide is not None:
             # seeds keep a wider berth from moving characters: the splice later shifts the
             # motion in space (displacement maps) and in time (resampling)
-            bad |= self.collide(frames0[which] + lib.samp_off[sidx], world[:, :2], rad + self.p.seed_margin)
-        if not len(bad):
-            return ok, ok.copy()
-        starts = np.concatenate([[0], np.cumsum(cnt)[:-1]])
-        ok &= ~np.logical_or.reduceat(bad, starts)
-        return ok, ok & ~np.logical_or.reduceat(near, starts)
+            ok &= ~self.collide_runs(frames, xz, rad + self.p.seed_margin, cnt)
+        return ok, ok & roomier
 
     def _bfs_dist(self, targets: np.ndarray, allowed: np.ndarray, reverse: bool) -> np.ndarray:
         """Fewest edges from every node to any of ``targets`` (edges masked by ``allowed``)."""
@@ -435,7 +454,7 @@ class SegmentPlanner:
         def advance(e):
             nonlocal node, cfg, frame, elapsed
             edges.append(int(e))
-            cfg = compose(cfg, disp[e])
+            cfg = compose1(cfg, disp[e])
             node = int(dst[e])
             frame += t_sign * int(lib.nframes[e] - 1)
             elapsed += float(lib.dur[e])
@@ -547,7 +566,7 @@ class SegmentPlanner:
         def clear_both(es, moving):
             """(collision-free, and also ``static_prefer`` clear of static obstacles)."""
             es = np.asarray(es, dtype=np.int64)
-            return self._clear(es, np.repeat(cfg[None], len(es), 0),
+            return self._clear(es, cfg,
                                 np.full(len(es), frame) if not reverse else frame - (lib.nframes[es] - 1),
                                 moving=moving)
         goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
@@ -996,7 +1015,7 @@ class SegmentPlanner:
                     # free orientation: the heading the forward seed arrives with
                     c = start.xzh
                     for e in F0:
-                        c = compose(c, lib.disp[e])
+                        c = compose1(c, lib.disp[e])
                     goal_h = float(c[2])
                 goal_cfg = np.array([goal.position[0], goal.position[1], goal_h])
                 self._goal_node = goal_node
@@ -1205,7 +1224,7 @@ class SegmentPlanner:
             c = np.zeros(3)
             for k, e in enumerate(edge_list):
                 cfg_starts.append(c)
-                c = compose(c, lib.disp[e])
+                c = compose1(c, lib.disp[e])
                 if k:
                     frames.append(np.arange(g.edge_start[e] + 1, g.edge_start[e + 1]))
             frames = np.concatenate(frames)
@@ -1354,10 +1373,10 @@ class SegmentPlanner:
                 edges = [int(e) for e in row[:nf]]
                 pre = start_cfg.copy()
                 for e in edges[:cols[0]]:
-                    pre = compose(pre, lib.disp[e])
+                    pre = compose1(pre, lib.disp[e])
                 suf = np.zeros(3)
                 for e in edges[cols[1] + 1:]:
-                    suf = compose(suf, lib.disp[e])
+                    suf = compose1(suf, lib.disp[e])
                 mid = compose(compose(compose(pre[None], lib.disp[grid[:, 0]]), lib.disp[grid[:, 1]]), suf[None])
                 tgt = goal_cfg
             else:
@@ -1368,7 +1387,7 @@ class SegmentPlanner:
                     post = compose_inverse(post, lib.disp[e])
                 pre_d = np.zeros(3)
                 for e in edges[:c_first]:
-                    pre_d = compose(pre_d, lib.disp[e])
+                    pre_d = compose1(pre_d, lib.disp[e])
                 mid = compose_inverse(compose_inverse(compose_inverse(np.broadcast_to(post, (len(grid), 3)),
                                                                       lib.disp[grid[:, 1]]), lib.disp[grid[:, 0]]),
                                       pre_d[None])
