@@ -113,6 +113,14 @@ if AVAILABLE:
                         continue
                     dx = xF[i] - xB[j]
                     dz = zF[i] - zB[j]
+                    # a lower bound of the cost first (|dx|, |dz| <= E_p, the other terms >= 0):
+                    # a match that cannot beat the best so far skips the hypot and the wrap
+                    # (the margin is far above rounding, so the minimum found is the same)
+                    lb = max(abs(dx), abs(dz))
+                    if has_window:
+                        lb += a2 * max(0.0, max(w0 - Np, Np - w1))
+                    if lb > b * Np * (1.0 + 1e-9):
+                        continue
                     Ep = np.hypot(dx, dz)
                     dh = hF[i] - hB[j]
                     Eh = abs(dh - two_pi * np.rint(dh * (1.0 / two_pi)))
