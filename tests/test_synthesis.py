@@ -706,7 +706,7 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     assert later and 1.5 * 30 <= later[0] <= 2.5 * 30          # the first delay, 2 s, in whole idle loops
     root = c.track.root
     assert np.abs(root[: later[0] + 1] - root[0]).max() < 0.05     # standing at the start till then
-    assert np.abs(root[later[0]] - root[0]).max() < 1e-9           # ... and back on its configuration
+    assert np.abs(root[later[0], :2] - root[0, :2]).max() < 1e-9   # ... and back on its position
     assert np.hypot(*(root[c.arrivals[0], :2] - [0.0, 4.0])) < 1e-3
     rep = check_crowd(sc, {c.name: c.track}, default_graph)
     assert rep["summary"]["passed"], rep["summary"]
@@ -715,6 +715,50 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     monkeypatch.setattr(SynthesisParams, "__init__", _with(SynthesisParams.__init__, depart_delays=()))
     res = plan_scenario(sc, default_graph)
     assert res.characters[0].warnings and all(f == 0 for f in starts)
+
+
+def test_a_wait_before_a_motion_keeps_its_idle_clips_turns(default_graph):
+    """The wait before a put-off departure (``_idle_for``) is bent back onto the start
+    position only: its heading follows the idle clips' own turns exactly (the checker's raw
+    increments, integrated), so the motion after it is not rotated off the raw clips the
+    checker integrates from the segment's start. (Bent back onto the start heading too, 30 s
+    of the "stand" idle clip turning 0.34 deg/s would leave a walk 10 degrees off: ~0.2 m/s of
+    adjustment at 1.3 m/s.) Its position stays on the start and it ends there."""
+    from runtime.crowd.checker import raw_increments
+    from runtime.crowd.scheduler import _idle_for, _idle_loop, still_nodes
+    g = default_graph
+    lib = MotionLibrary(g)
+    still = np.flatnonzero(still_nodes(g, (0.02, 2.0, 1 / 15)))
+    node = max(still, key=lambda n: abs(g.edge_disp[_idle_loop(g, n), 2]))   # the one that turns most
+    assert abs(g.edge_disp[_idle_loop(g, node), 2]) > 1e-3
+    cfg = Config(int(node), 1.0, 2.0, 0.5, 60)
+    tr = _idle_for(lib, g, cfg, 30.0, 30.0)
+    assert tr.start_frame == 60 and len(tr) > 29 * 30
+    inc, _ = raw_increments(g, tr)
+    np.testing.assert_allclose(tr.root[0, 2] + np.concatenate([[0.0], np.cumsum(inc[:, 2])]), tr.root[:, 2], atol=1e-6)
+    assert abs(tr.root[-1, 2] - 0.5) > 0.01                               # it did turn
+    assert np.abs(tr.root[:, :2] - [1.0, 2.0]).max() < 0.05
+    np.testing.assert_allclose(tr.root[-1, :2], [1.0, 2.0], atol=1e-9)
+
+
+def test_lane_clear_delay_is_the_first_whole_second_a_straight_walk_is_clear():
+    """``_lane_clear_delay``: the wait before a straight walk at 1.3 m/s from the start to the
+    goal misses every planned character -- here one standing on the line until frame 400 --
+    found by brute force over whole seconds."""
+    from runtime.crowd.scheduler import _lane_clear_delay
+    from runtime.crowd.spacetime import SpaceTimeIndex
+    index = SpaceTimeIndex(cell=1.6)
+    f = np.arange(400)
+    index.insert(0, f, np.broadcast_to([0.2, 5.0], (400, 2)), np.full(400, 0.4))
+    cfg = Config(0, 0.0, 0.0, 0.0, 30)
+    goal = Goal(np.array([0.0, 10.0]))
+    d = _lane_clear_delay(index, cfg, goal, 30.0, 1800, 0.5)
+    n = int(10.0 / 1.3 * 30) + 1
+    path = np.linspace(0.0, 10.0, n)
+    want = next(k for k in range(60)
+                if not any(30 + 30 * k + i < 400 and np.hypot(0.2, path[i] - 5.0) < 0.9 for i in range(n)))
+    assert d == float(want) and 5 <= want <= 10
+    assert _lane_clear_delay(index, cfg, goal, 30.0, 400, 0.5) is None     # no time left to wait that long
 
 
 def _with(init, **overrides):

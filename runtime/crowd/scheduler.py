@@ -70,10 +70,15 @@ def track_radius(graph, track: Track) -> np.ndarray:
     return np.maximum(graph.frame_radius[track.frames_a], graph.frame_radius[track.frames_b])
 
 
-def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
+def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int, turn: bool = False) -> Track:
     """``n_frames`` frames (including the start frame) of idling at ``cfg``: the node's
     self-loop clip with the least drift, repeated, each repeat bent back onto the start
-    configuration; a held pose when the node has no self loop."""
+    configuration; a held pose when the node has no self loop. ``turn``: each repeat is bent
+    back onto the start position only and keeps the clip's turn, so the idling ends turned by
+    the clips' own small turns -- what a wait before a motion needs: bent back onto the
+    heading, a wait of 30 s leaves the raw clips integrated from its start a few degrees off
+    the motion after it, which the checker's per-frame adjustment sees as the whole walk
+    rotated (the 14 x 6 grid at 2.2 m: 10 characters over eps)."""
     g = lib.g
     e = _idle_loop(g, cfg.node)
     start = np.array([cfg.x, cfg.z, cfg.heading])
@@ -85,11 +90,19 @@ def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int) -> Track:
     L = b - a                                   # frames in the loop including both hub frames
     local = np.stack([g.frame_xz[a:b, 0], g.frame_xz[a:b, 1], g.frame_heading[a:b]], axis=1)
     ramp = np.linspace(0.0, 1.0, L)[:, None] * g.edge_disp[e][None, :]
+    if turn:
+        ramp[:, 2] = 0.0
     local = local - ramp                        # each repeat returns exactly to the start
     reps = int(np.ceil((n_frames - 1) / (L - 1)))
     idx = np.concatenate([[0]] + [np.arange(1, L)] * reps)[:n_frames]
     frames = a + idx
-    root = compose(start[None], local[idx])
+    if turn:
+        rep = np.concatenate([[0], np.repeat(np.arange(reps), L - 1)])[:n_frames]
+        starts = np.repeat(start[None], reps, 0)
+        starts[:, 2] += np.arange(reps) * float(g.edge_disp[e, 2])
+        root = compose(starts[rep], local[idx])
+    else:
+        root = compose(start[None], local[idx])
     return Track(frames, frames.copy(), np.zeros(n_frames, np.float32), root, cfg.frame)
 
 
@@ -391,14 +404,37 @@ def _collides_early(planner, res, frames: float) -> bool:
     return hit is not None and hit < min(frames, len(res.root))
 
 
+LANE_RADIUS = 0.5    # m: the bounding cylinder of a walk in _lane_clear_delay's straight proxy
+
+
+def _lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3, step: float = 1.0):
+    """Whole ``step`` seconds to stand at ``cfg`` before a straight walk at ``speed`` to the
+    goal (a proxy of the motion, a cylinder of ``radius``) misses every planned character in
+    ``index``; None when no such wait leaves 2 s of the scenario (``n_total`` frames) after the
+    walk. A crowd setting off together clears a lane in front of a character in this time --
+    the wait sized to it, where fixed delays of a few seconds were too short behind the
+    dense grids' front columns."""
+    a = np.array([cfg.x, cfg.z])
+    b = np.asarray(goal.position, float)
+    n = int(np.hypot(*(b - a)) / speed * fps) + 1
+    xz = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    d = 0.0
+    while cfg.frame + (d + 2.0) * fps + n < n_total:
+        f0 = cfg.frame + int(round(d * fps))
+        if index.first_overlap(f0 + np.arange(n), xz, radius) < 0:
+            return d
+        d += step
+    return None
+
+
 def _idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:
     """About ``seconds`` of idling at ``cfg`` (:func:`idle_track`) in whole repeats of its
-    loop clip, so that the last frame is back on ``cfg``'s node and configuration; its clock
-    starts at ``cfg.frame``."""
+    loop clip, so that the last frame is back on ``cfg``'s node and position (turned by the
+    clip's own turns, see ``turn``); its clock starts at ``cfg.frame``."""
     e = _idle_loop(graph, cfg.node)             # the clip idle_track repeats
     step = int(graph.edge_start[e + 1] - graph.edge_start[e]) - 1
     n = 1 + max(1, int(round(seconds * fps / step))) * step
-    tr = idle_track(lib, cfg, n)
+    tr = idle_track(lib, cfg, n, turn=True)
     tr.start_frame = cfg.frame
     return tr
 
@@ -458,13 +494,18 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
             # an untimed goal whose motions all run into characters planned earlier (a crowd
             # setting off together): stand a while first, then go -- the ones ahead are then
             # further on (the 20 x 15 grid at 2.2 m, first 90 characters: 8 -> 1 with warnings)
-            for d in params.depart_delays:
+            delays = params.depart_delays
+            dc = _lane_clear_delay(index, cfg, goal, fps, n_total, LANE_RADIUS + params.margin) \
+                if params.depart_clear else None
+            if dc:          # (0: the straight walk is clear now, the fixed delays are tried)
+                delays = (dc, dc + 3.0)
+            for d in delays:
                 idle = _idle_for(lib, graph, cfg, d, fps)
                 frames = cfg.frame + np.arange(len(idle))
                 rad = track_radius(graph, idle) + params.margin
                 if np.asarray(index.overlaps(frames, idle.root[:, :2], rad), dtype=bool).any():
                     break           # someone passes where it stands: waiting longer will not help
-                later = Config(cfg.node, cfg.x, cfg.z, cfg.heading, int(frames[-1]))
+                later = Config(cfg.node, *(float(v) for v in idle.root[-1]), int(frames[-1]))
                 res2 = run_to_completion(planner.run(later, goal, rng, owner, name=f"{c.name} goal {gi}",
                                                      n_max=n_retry))
                 iters += res2.iterations

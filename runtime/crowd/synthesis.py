@@ -130,7 +130,12 @@ class SynthesisParams:
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all its
                                    # motions collide (scheduler; from a node where one can stand still) ...
-    depart_within: float = 10.0    # ... and the first collision comes within this many s of the start
+    depart_within: float = 60.0    # ... and the first collision comes within this many s of the start
+                                   # (14 x 6 grid at 2.2 m, one pass, with depart_clear: 10 s left 12
+                                   # characters with warnings, 60 s 5)
+    depart_clear: bool = True      # ... the first delay tried instead: the whole seconds of waiting after
+                                   # which a straight walk to the goal misses every planned character
+                                   # (then 3 s more; the fixed delays when that is 0 s or never)
     start_still: bool | None = None  # characters start on a node of their pose where they can stand still
                                    # and wait (scheduler; the World always does). False: the pose's most
                                    # connected node, which for "stand" is a walking hub (see docs/status.md).
