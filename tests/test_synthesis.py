@@ -710,8 +710,16 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     assert np.hypot(*(root[c.arrivals[0], :2] - [0.0, 4.0])) < 1e-3
     rep = check_crowd(sc, {c.name: c.track}, default_graph)
     assert rep["summary"]["passed"], rep["summary"]
+    # with a lane that clears after 5 s (_lane_clear_delay), that is the wait tried first
+    starts.clear()
+    monkeypatch.setattr(sched, "_lane_clear_delay", lambda *a, **k: 5.0)
+    c = plan_scenario(sc, default_graph).characters[0]
+    assert c.warnings == []
+    later = [f for f in starts if f > 0]
+    assert later and 4.5 * 30 <= later[0] <= 5.5 * 30
     # with no delays the forced collision stays a warning
     starts.clear()
+    monkeypatch.setattr(sched, "_lane_clear_delay", lambda *a, **k: None)
     monkeypatch.setattr(SynthesisParams, "__init__", _with(SynthesisParams.__init__, depart_delays=()))
     res = plan_scenario(sc, default_graph)
     assert res.characters[0].warnings and all(f == 0 for f in starts)
