@@ -121,7 +121,6 @@ def adjustment_rates(graph, track, k0, k1, fps):
 def _best_split(pf, hf, pb, hb, graph, adv, eps=(0.02, 2.0)):
     rf = np.maximum(pf / eps[0], hf / eps[1])
     rb = np.maximum(pb / eps[0], hb / eps[1])
-    n = len(rf)
     pre = np.concatenate([[0.0], np.maximum.accumulate(rf)])            # max over steps < s
     suf = np.concatenate([np.maximum.accumulate(rb[::-1])[::-1], [0.0]])  # max over steps >= s
     s = int(np.argmin(np.maximum(pre, suf)))

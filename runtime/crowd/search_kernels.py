@@ -140,7 +140,7 @@ if AVAILABLE:
 def pair_costs(F, nf, B, nb, disp, dur, edge_src, edge_dst, start, goal, start_node, goal_node, a1, a2,
                window_rel):
     """(cost (P,), i (P,), j (P,)) as :meth:`SegmentPlanner.pair_costs` returns them."""
-    P, Lb = F.shape[0], B.shape[1]
+    P = F.shape[0]
     best = np.empty(P)
     bi = np.empty(P, np.int64)
     bj = np.empty(P, np.int64)

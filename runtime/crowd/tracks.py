@@ -8,7 +8,7 @@ of them can be evaluated in one vectorized pass (:func:`evaluate_poses`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
