@@ -10,6 +10,12 @@
   ratios of our total and of our mean per character to theirs. (In the paper's rows 6a and 6b
   the total, 0.86 s and 0.90 s, is not characters x mean as in rows 1-5: 300 x 0.034 s =
   10.2 s, 500 x 0.035 s = 17.5 s. The table prints a note; both ratios are shown.)
+  ``reused`` counts the segments whose motion was another character's with the same task
+  (``runtime.crowd.motion_cache``) out of all segments planned; the grid rows are planned a
+  second time with reuse off -- every character searched -- and that baseline's total and the
+  ratio are printed under them. A two-character plan runs first, untimed, so that loading
+  numba's compiled kernels (once per process) is not counted in the first row; its time is
+  printed.
 * **Figure 11** -- mean synthesis time per character for a 300-character grid (20 x 15,
   ``samples/make_samples.grid_scenario``) at grid spacings 2.2, 2.6, 3.0 and 3.5 m (the samples
   use 3.0 m), widest first, each row printed when done with its ratio to the widest spacing
@@ -74,15 +80,16 @@ def default_graph():
     return load_library("default", None)
 
 
-def run(sc, graph, env, roadmap, eps=None, quiet=True):
-    """Plan and check one scenario; returns a dict of the figures."""
+def run(sc, graph, env, roadmap, eps=None, quiet=True, reuse=True):
+    """Plan and check one scenario; returns a dict of the figures. ``reuse``: the planner tries
+    motions found for other characters' same tasks first (``SynthesisParams.reuse_motions``)."""
     from tqdm import tqdm
 
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scheduler import plan_scenario
     from runtime.crowd.synthesis import SynthesisParams
     eps = tuple(eps or sc.epsilon)
-    params = SynthesisParams(eps=eps)
+    params = SynthesisParams(eps=eps, reuse_motions=reuse)
     with tqdm(total=len(sc.characters), desc=sc.name, unit="char", leave=False, disable=quiet) as bar:
         res = plan_scenario(sc, graph, env, roadmap, params=params, progress=bar.update)
     tracks = {c.name: c.track for c in res.characters}
@@ -94,11 +101,18 @@ def run(sc, graph, env, roadmap, eps=None, quiet=True):
             # all passes count: the total over the characters (failed ones are planned again)
             "per_char": res.total_seconds / max(n, 1),
             "passes": res.passes,
+            "reused": res.reused, "searched": res.searched,
             "total": res.total_seconds,
             "max_char": max((c.seconds for c in res.characters), default=0.0),
             "warnings": sum(len(c.warnings) for c in res.characters),  # of the pass kept
             "passed": s["passed"], "summary": s,
             "by_name": {c.name: (c.motion_seconds, c.seconds, len(c.warnings)) for c in res.characters}}
+
+
+def reused(r) -> str:
+    """Segments whose motion was reused / all segments planned (counting every try)."""
+    n = r["reused"] + r["searched"]
+    return f"{r['reused']}/{n}" if n else "-"
 
 
 def verdict(r) -> str:
@@ -121,6 +135,18 @@ def verdict(r) -> str:
     return "FAIL (" + ", ".join(why) + ")"
 
 
+def warm_up(graph):
+    """Plan a two-character scenario, untimed: the first planning in a process loads numba's
+    compiled kernels from its cache (or compiles them), which a running game pays once at start."""
+    from runtime.crowd.scenario import parse_scenario
+    from runtime.crowd.scheduler import plan_scenario
+    chars = [{"name": f"w{k}", "start": {"position": [0.0, 3.0 * k], "heading": 90.0, "pose": "stand"},
+              "goal": [{"position": [6.0, 3.0 * (1 - k)]}]} for k in range(2)]
+    t0 = time.perf_counter()
+    plan_scenario(parse_scenario({"name": "warm-up", "duration": 12.0, "character": chars}), graph)
+    return time.perf_counter() - t0
+
+
 def table1(names, quick, quiet):
     from authoring.commands.bake import load_sample
     from runtime.crowd.scenario import parse_scenario
@@ -128,9 +154,10 @@ def table1(names, quick, quiet):
           + (f"  [--quick: at most {QUICK_CHARACTERS} characters each; grids 10 x 6]" if quick else ""))
     head = (f"{'ex':<3} {'sample':<14} {'chars':>5} {'duration':>9} {'synth/char':>11} {'total':>9} "
             f"{'max char':>9} {'warn':>5} {'pass':>4}  {'paper: chars dur synth/char total':<34} {'total/paper':>11} "
-            f"{'per char/paper':>14}  checker")
+            f"{'per char/paper':>14}  {'reused':>7}  checker")
     print(head)
     print("-" * len(head))
+    print(f"    (warm-up, not counted: a 2-character plan loading the compiled kernels took {warm_up(default_graph()):.2f} s)")
     for ex, name, paper in TABLE1:
         if name not in names:
             continue
@@ -151,10 +178,16 @@ def table1(names, quick, quiet):
         pc, pd, ps, pt = paper
         print(f"{ex:<3} {name:<14} {r['n']:>5} {r['duration']:>8.1f}s {r['per_char']:>10.3f}s {r['total']:>8.2f}s "
               f"{r['max_char']:>8.2f}s {r['warnings']:>5} {r['passes']:>4}  {pc:>5} {pd:>5.1f}s {ps:>8.3f}s {pt:>6.2f}s    "
-              f"{r['total'] / pt:>10.1f}x {r['per_char'] / ps:>13.2f}x  {verdict(r)}", flush=True)
+              f"{r['total'] / pt:>10.1f}x {r['per_char'] / ps:>13.2f}x  {reused(r):>7}  {verdict(r)}", flush=True)
         if abs(pc * ps - pt) > 0.2 * pt and r['n'] == pc:
             print(f"    (the paper's total {pt:g} s is not its {pc} characters x {ps:g} s = {pc * ps:.1f} s, "
                   f"unlike rows 1-5: against that product ours is {r['total'] / (pc * ps):.2f}x)")
+        if name.startswith("grid") and r["reused"]:
+            # the baseline in the same run: every character searched for its own motion
+            b = run(sc, graph, env, roadmap, quiet=quiet, reuse=False)
+            print(f"    (every character searched, no reuse: total {b['total']:.2f} s, {b['per_char']:.3f} s per character, "
+                  f"{b['warnings']} warnings, checker {verdict(b)}; reuse is {b['total'] / r['total']:.1f}x faster)",
+                  flush=True)
         if "main" in r["by_name"] and r["n"] > 1:
             d, t, w = r["by_name"]["main"]
             print(f"    (the crossing character 'main' alone: duration {d:.1f} s, synthesis {t:.3f} s, {w} warnings; "

@@ -15,6 +15,7 @@ import numpy as np
 from ..motion.graph import STATES
 from .scenario import Scenario, ScenarioError, planning_order
 from .spacetime import SpaceTimeIndex
+from .motion_cache import MotionCache
 from .synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .tracks import Track, concat_tracks
 
@@ -42,6 +43,8 @@ class CrowdResult:
     order: list
     total_seconds: float = 0.0
     passes: int = 1           # planning passes run (failed characters first in each new one)
+    reused: int = 0           # segments whose motion was another character's, reused (motion_cache)
+    searched: int = 0         # segments that searched (no stored motion for the task was clear)
 
     def by_name(self, name) -> CharacterResult:
         return next(c for c in self.characters if c.name == name)
@@ -195,7 +198,8 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
     passes = max(1, int(sc.synthesis.get("passes", 3)))
     ctx = _Context(sc, graph, env, roadmap, params, lib, fps, n_total, static,
                    SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05)),
-                   still_nodes(graph, params.eps, fps), log)
+                   still_nodes(graph, params.eps, fps), log,
+                   MotionCache() if params.reuse_motions else None)
     order = planning_order(sc)
     for ci in order:
         hold = _seat_hold(sc.characters[ci], graph, fps)
@@ -219,7 +223,9 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: Synthesis
         _repair(ctx, results, failed, k)
         k += 1
     total = time.perf_counter() - t_all
-    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k)
+    cache = ctx.cache
+    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k,
+                       cache.hits if cache else 0, cache.misses if cache else 0)
 
 
 REPAIR_BLOCKERS = 3     # planned characters a failed one may displace in a repair
@@ -239,6 +245,7 @@ class _Context:
     index: SpaceTimeIndex
     still: np.ndarray
     log: object
+    cache: MotionCache | None = None
 
     def cylinders(self, track):
         rad = track_radius(self.graph, track)
@@ -273,7 +280,8 @@ def _plan_one(ctx: _Context, results, ci: int, k: int, attempt: int = 0) -> Char
             extra = [a, attempt]
         rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + extra)
         out = _plan_character(sc, graph, ctx.env, ctx.roadmap, params, ctx.lib, ctx.fps, ctx.n_total, ctx.static,
-                              ctx.index, results, ci, node, rng, ctx.still, retry=bool(a or attempt))
+                              ctx.index, results, ci, node, rng, ctx.still, retry=bool(a or attempt),
+                              cache=ctx.cache)
         iters += out[4]
         if best is None or len(out[3]) < len(best[3]):
             best = out
@@ -440,7 +448,7 @@ def _idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:
 
 
 def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng,
-                    still=None, retry: bool = False):
+                    still=None, retry: bool = False, cache=None):
     """All goals of character ``ci`` from start node ``node`` against the characters in
     ``index``: (track over the whole scenario, arrival frames, goals, warnings, iterations).
     Each segment's search gets ``params.n_max`` iterations (``retry``: this is a further try
@@ -454,6 +462,7 @@ def _plan_character(sc, graph, env, roadmap, params, lib, fps, n_total, static, 
                              collide_first=lambda f, xz, r: index.first_overlap(f, xz, r),
                              collide_runs=lambda f, xz, r, cnt: index.any_overlap_runs(f, xz, r, cnt),
                              roadmap=roadmap, env=env, params=params)
+    planner.cache = cache
     cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
     parts = []
     arrivals, goals, warnings = [], [], []

@@ -41,6 +41,7 @@ from scipy.sparse.csgraph import shortest_path
 
 from ..motion.graph import MotionGraph, STATES, TRANSITION
 from . import search_kernels as _kernels
+from .motion_cache import task_key
 
 __all__ = ["SynthesisParams", "Config", "Goal", "SegmentResult", "MotionLibrary", "SegmentPlanner",
            "compose", "compose1", "compose_inverse", "wrap_angle"]
@@ -147,6 +148,8 @@ class SynthesisParams:
                                    # motion by a few cm, and seeds hugging a door post collided there)
     end_clearance: float = 0.65    # m from static obstacles a seed's edge must end (away from the goal),
                                    # so it can walk on (a walking cylinder is up to 0.63 m); 0: off
+    reuse_motions: bool = True     # scheduler: a motion found for one character is tried first for the
+                                   # next with the same task relative to its start (motion_cache)
     fps: float = 30.0
 
     @property
@@ -350,6 +353,9 @@ class SegmentPlanner:
         self.hold = None
         self.waited = 0             # waits of the last seed (greedy_steps)
         self.compiled = _kernels.AVAILABLE      # splice costs and seed lookahead by the numba kernels
+        # motions found for other characters' same tasks, tried before a search (a
+        # motion_cache.MotionCache shared by the planners of one scenario; None: off)
+        self.cache = None
 
     # -- helpers -------------------------------------------------------------------------------
     def travel_state(self, start_node: int, goal: Goal) -> int:
@@ -963,6 +969,15 @@ class SegmentPlanner:
         iterations of all attempts count against N_max.
         """
         g, lib, p = self.g, self.lib, self.p
+        key = None
+        if self.cache is not None:
+            # a motion found for the same task from another start, placed here (motion_cache)
+            key = task_key(start, goal, p.fps)
+            for k, res in self.cache.candidates(key, start, goal):
+                if self.final_collision(res, owner) is None:
+                    self.cache.used(key, k)
+                    return res
+            self.cache.misses += 1
         n_max = p.n_max if n_max is None else int(n_max)
         travel = self.travel_state(start.node, goal)
         base = self.waypoints(start, goal)
@@ -1064,6 +1079,8 @@ class SegmentPlanner:
                            f"(best cost {cost / eps_p:.2f} x eps{', collides' if res.collided else ''}); using the best pair")
             result = res
         result.iterations = iterations
+        if key is not None and result.ok and not result.warning:
+            self.cache.store(key, start, result)
         return result
 
     def _search(self, start, goal_cfg, goal_node, F0, B0, window_rel, travel, owner, rng, max_iter):
