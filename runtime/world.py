@@ -54,6 +54,7 @@ import numpy as np
 from .crowd.scenario import BOX_REACH
 from .crowd.scheduler import idle_track, still_nodes
 from .crowd.spacetime import SpaceTimeIndex
+from .crowd.motion_cache import MotionCache
 from .crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .crowd.tracks import Track, evaluate_poses
 from .motion.fk import forward_kinematics
@@ -236,6 +237,8 @@ class World:
         # step fits well inside the per-tick budget
         self.params = params or SynthesisParams(fps=self.fps, n_max=60, n_m=48, k_m=16, sweep=24, backward_idle=True)
         self.lib = MotionLibrary(self.graph, self.params)
+        # motions found for one character's task, tried first for the next with the same task
+        self._motion_cache = MotionCache() if self.params.reuse_motions else None
         self.rng = np.random.default_rng(seed)
         self.frame = 0
         self.accumulator = 0.0
@@ -554,6 +557,7 @@ class World:
         planner = SegmentPlanner(self.lib, static=self._static,
                                  collide=lambda f, xz, r, s=c.slot: self._collide(f, xz, r, s),
                                  roadmap=self.roadmap, env=self.env, params=self.params)
+        planner.cache = self._motion_cache
         goal = pend.goal
         if goal.window is not None and goal.window[1] < (start.frame + 1) / self.fps:
             self._emit("late", c.name, window=goal.window, message="the arrival window has passed; planning without it")

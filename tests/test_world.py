@@ -300,3 +300,21 @@ def test_rendered_joint_positions_follow_the_exact_poses(default_graph):
             assert jp.shape == (len(w.names), default_graph.skeleton.num_joints, 3)
             assert np.abs(jp - w.poses(alpha)).max() < 0.02, (k, alpha)
         w.accumulator = 0.0
+
+
+def test_a_second_character_with_the_same_task_reuses_the_first_ones_motion(default_graph):
+    w = World(default_graph, seed=4)
+    got = []
+    w.on("arrived", got.append)
+    w.spawn("a", (0.0, 0.0), 0.0)
+    w.spawn("b", (4.0, 0.0), 0.0)
+    w.go_to("a", (1.0, 6.0), heading=math.radians(30))
+    w.go_to("b", (5.0, 6.0), heading=math.radians(30))
+    _run(w, 14)
+    assert sorted(e.character for e in got) == ["a", "b"]
+    assert w._motion_cache.hits == 1
+    for e in got:
+        r = _root_at(w, e.character, e.data["frame"])
+        gx = 1.0 if e.character == "a" else 5.0
+        assert np.hypot(r[0] - gx, r[1] - 6.0) < 1e-6
+        assert abs((r[2] - math.radians(30) + math.pi) % (2 * math.pi) - math.pi) < 1e-6
