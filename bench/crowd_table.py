@@ -28,6 +28,9 @@ Figures only, no asserts. Timings are wall-clock on this machine; planning is si
 
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_table.py [--quick] [--only NAME] [--spacings ...] [--quiet]
 
+``--no-reuse`` makes every character search (``SynthesisParams.reuse_motions = False``), as
+in the paper; the dense rows of Figure 11 then take 15-30 min each.
+
 ``--quick`` plans at most 10 characters of each sample (a prefix of the planning order, which
 keeps every timing dependency), a 10 x 6 grid instead of the 300/500 ones, three spacings and
 three eps scales. ``--only NAME`` runs one sample's Table 1 row, or ``table1`` (all its rows),
@@ -80,7 +83,10 @@ def default_graph():
     return load_library("default", None)
 
 
-def run(sc, graph, env, roadmap, eps=None, quiet=True, reuse=True):
+REUSE = True        # --no-reuse: every character searches (the paper's own method, section 3)
+
+
+def run(sc, graph, env, roadmap, eps=None, quiet=True, reuse=None):
     """Plan and check one scenario; returns a dict of the figures. ``reuse``: the planner tries
     motions found for other characters' same tasks first (``SynthesisParams.reuse_motions``)."""
     from tqdm import tqdm
@@ -89,7 +95,7 @@ def run(sc, graph, env, roadmap, eps=None, quiet=True, reuse=True):
     from runtime.crowd.scheduler import plan_scenario
     from runtime.crowd.synthesis import SynthesisParams
     eps = tuple(eps or sc.epsilon)
-    params = SynthesisParams(eps=eps, reuse_motions=reuse)
+    params = SynthesisParams(eps=eps, reuse_motions=REUSE if reuse is None else reuse)
     with tqdm(total=len(sc.characters), desc=sc.name, unit="char", leave=False, disable=quiet) as bar:
         res = plan_scenario(sc, graph, env, roadmap, params=params, progress=bar.update)
     tracks = {c.name: c.track for c in res.characters}
@@ -182,7 +188,7 @@ def table1(names, quick, quiet):
         if abs(pc * ps - pt) > 0.2 * pt and r['n'] == pc:
             print(f"    (the paper's total {pt:g} s is not its {pc} characters x {ps:g} s = {pc * ps:.1f} s, "
                   f"unlike rows 1-5: against that product ours is {r['total'] / (pc * ps):.2f}x)")
-        if name.startswith("grid") and r["reused"]:
+        if name.startswith("grid") and r["reused"] and REUSE:
             # the baseline in the same run: every character searched for its own motion
             b = run(sc, graph, env, roadmap, quiet=quiet, reuse=False)
             print(f"    (every character searched, no reuse: total {b['total']:.2f} s, {b['per_char']:.3f} s per character, "
@@ -205,7 +211,8 @@ def fig11(quick, quiet, spacings=None):
     labels = set(graph.node_labels_all())
     print(f"\nFigure 11 (paper 000): mean synthesis time per character vs grid spacing, {cols * rows} characters "
           f"({cols} x {rows} grid to a translated grid, perturbed targets)")
-    head = f"{'spacing':>8} {'synth/char':>11} {'total':>9} {'duration':>9} {'warn':>5} {'vs widest':>10}  checker"
+    head = (f"{'spacing':>8} {'synth/char':>11} {'total':>9} {'duration':>9} {'warn':>5} {'vs widest':>10} "
+            f"{'reused':>8}  checker")
     print(head)
     print("-" * len(head))
     ref = None
@@ -215,7 +222,7 @@ def fig11(quick, quiet, spacings=None):
         r = run(sc, graph, None, None, quiet=quiet)
         ref = ref or r["per_char"]
         print(f"{sp:>7.1f}m {r['per_char']:>10.3f}s {r['total']:>8.2f}s {r['duration']:>8.1f}s {r['warnings']:>5} "
-              f"{r['per_char'] / ref:>9.2f}x  {verdict(r)}", flush=True)
+              f"{r['per_char'] / ref:>9.2f}x {reused(r):>8}  {verdict(r)}", flush=True)
 
 
 def fig12(quick, quiet):
@@ -246,7 +253,12 @@ def main(argv=None) -> int:
     ap.add_argument("--spacings", default=None,
                     help="Figure 11's grid spacings in metres, comma-separated (default 2.2,2.6,3.0,3.5); "
                          "they run widest first and the ratio column is to the widest")
+    ap.add_argument("--no-reuse", action="store_true",
+                    help="every character searches for its own motion (no reuse of motions between characters "
+                         "with the same task): the paper's method, and the planning times its Figure 11 shows")
     args = ap.parse_args(argv)
+    global REUSE
+    REUSE = not args.no_reuse
     try:
         spacings = tuple(float(v) for v in args.spacings.split(",")) if args.spacings else None
     except ValueError:
