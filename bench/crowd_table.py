@@ -13,9 +13,10 @@
   ``reused`` counts the segments whose motion was another character's with the same task
   (``runtime.crowd.motion_cache``) out of all segments planned; the grid rows are planned a
   second time with reuse off -- every character searched -- and that baseline's total and the
-  ratio are printed under them. A two-character plan runs first, untimed, so that loading
-  numba's compiled kernels (once per process) is not counted in the first row; its time is
-  printed.
+  ratio are printed under them.
+
+A two-character plan runs first, untimed, so that loading numba's compiled kernels (once per
+process) is not counted in the first row measured; its time is printed.
 * **Figure 11** -- mean synthesis time per character for a 300-character grid (20 x 15,
   ``samples/make_samples.grid_scenario``) at grid spacings 2.2, 2.6, 3.0 and 3.5 m (the samples
   use 3.0 m), widest first, each row printed when done with its ratio to the widest spacing
@@ -163,7 +164,6 @@ def table1(names, quick, quiet):
             f"{'per char/paper':>14}  {'reused':>7}  checker")
     print(head)
     print("-" * len(head))
-    print(f"    (warm-up, not counted: a 2-character plan loading the compiled kernels took {warm_up(default_graph()):.2f} s)")
     for ex, name, paper in TABLE1:
         if name not in names:
             continue
@@ -269,6 +269,7 @@ def main(argv=None) -> int:
         ap.error(f"--only: unknown {args.only!r} (samples: {', '.join(names)}; or table1, fig11, fig12)")
     from authoring.default_library import ensure_library
     ensure_library("default", log=lambda m: print(m, file=sys.stderr), progress=not quiet)
+    print(f"(warm-up, not counted: a 2-character plan loading the compiled kernels took {warm_up(default_graph()):.2f} s)\n")
     if args.only in (None, "table1", *names):
         table1([args.only] if args.only in names else names, args.quick, quiet)
     if args.only in (None, "fig11"):
