@@ -226,3 +226,79 @@ def test_lookahead_containment_matches_brute_force(ddg, frame_exact):
             assert sorted(got) == sorted(truth)
         strict += len(truth) - len(got)
     assert frame_exact or strict > 0
+
+
+# ---------------------------------------------------------------- look-ahead depth and recovery
+def test_every_edge_taken_is_followed_by_the_kept_look_ahead(ddg):
+    """When a region flock takes an edge, its verified plan beyond that edge runs at least
+    ``(search_factor - 1) * horizon``: the look-ahead for a node runs before the edge taken
+    there is committed, and extends the plan from its end. (The first walk searched again only
+    once the plan after the *current* edge ran under the horizon, so a long edge taken next
+    could leave a few seconds of verified future -- too little to turn away from a dead end.)"""
+    pos0, region = _start(ddg, 4)
+    fs = FlockSystem(ddg, seed=11)
+    fs.add_flocks(pos0, [0.0, 1.5, 3.0, 4.5], region)
+    edges, taken = fs.current_edges(), 0
+    for _ in range(30 * 120):
+        fs.step(1 / 30)
+        e = fs.current_edges()
+        moved = np.nonzero(e != edges)[0]
+        if moved.size:
+            assert np.all(fs._backup[moved] >= fs.keep_frames), (fs._backup[moved], fs.keep_frames)
+            taken += moved.size
+        edges = e
+    assert taken > 4 * 20 and fs.stats["search_failures"] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dim, recording_seed", [(3, 6), (2, 4)])
+def test_region_walk_turns_away_from_dead_ends(dim, recording_seed):
+    """Sparser graphs in smaller regions have dead ends tens of seconds deep (states from which
+    every path leaves the region sooner or later); the look-ahead sees far enough to turn away
+    in time. (With a 20 s look-ahead 1 to 7 of these 20 flocks left their region within
+    5 minutes and stayed out for minutes.)"""
+    rec = record_flock(BoidsParams(dim=dim), 150.0, seed=recording_seed)
+    g, _ = build_ddg(rec, BuildParams())
+    n, ticks, dt = 20, 5 * 60 * 30, 1.0 / 30.0
+    pos0 = np.zeros((n, 3))
+    if dim == 3:
+        region = Box([-25, 0, -25], [25, 30, 25])
+        pos0[:, 1] = 15.0
+    else:
+        region = Polygon([[-30, -30], [30, -30], [30, 0], [0, 0], [0, 30], [-30, 30]])
+        pos0[:, 0] = pos0[:, 2] = -15.0
+    fs = FlockSystem(g, seed=1)
+    fs.add_flocks(pos0, np.linspace(0, 6, n, endpoint=False), region)
+    checker = WalkChecker(g.max_step, g.fps, [region] * n, tolerance=0.1)
+    checker.update(fs.positions(), dt)
+    for _ in range(ticks):
+        fs.step(dt)
+        checker.update(fs.positions(), dt)
+    report = checker.summary()
+    assert report["frames_outside"] == 0 and report["step_violations"] == 0, report
+    assert fs.stats["fallbacks"] == 0
+
+
+def test_a_flock_outside_its_new_region_walks_into_it(ddg):
+    """A flock with no inside path left -- here: given a region it is not in -- follows recovery
+    paths into the region and mostly stays in once there (the first walk kept taking the first
+    out-edge, so such a flock never came back)."""
+    a = Box([-35, 0, -35], [35, 40, 35])
+    b = Box([45, 0, -35], [115, 40, 35])
+    n, ticks = 3, 30 * 240
+    fs = FlockSystem(ddg, seed=5)
+    fs.add_flocks([[0.0, 20.0, 0.0]] * n, [0.0, 2.0, 4.0], a)
+    for _ in range(300):
+        fs.step(1 / 30)
+    for f in range(n):
+        fs.set_region(f, b)
+    entered = np.full(n, -1)
+    inside = np.zeros(n, int)
+    for t in range(ticks):
+        fs.step(1 / 30)
+        ins = b.contains(fs.centroids())
+        entered[(entered < 0) & ins] = t
+        inside += ins
+    assert np.all((entered >= 0) & (entered < 30 * 180)), entered
+    assert np.all(inside >= 0.6 * (ticks - entered)), (entered, inside)
+    assert fs.stats["fallbacks"] > 0

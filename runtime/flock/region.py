@@ -12,6 +12,7 @@ decides (boundary points may go either way, so keep a margin in practice).
 """
 from __future__ import annotations
 
+import math
 from array import array
 
 import numpy as np
@@ -235,6 +236,8 @@ class Box(Region):
             raise ValueError(f"box corners must satisfy lo < hi on every axis, got {lo} and {hi}")
         self.lo = lo
         self.hi = hi
+        self._lo = [float(a) for a in lo]
+        self._hi = [float(a) for a in hi]
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         p = np.asarray(points, dtype=np.float64)
@@ -261,7 +264,13 @@ class Box(Region):
         return np.where(np.isfinite(c), c, 0.0)
 
     def depth_point(self, x: float, y: float, z: float) -> float:
-        return float(self.depth(np.array([x, y, z]))[()])
+        """:meth:`depth` for one point, in plain Python."""
+        lo, hi = self._lo, self._hi
+        p = (x, y, z)
+        inside = min(min(p[k] - lo[k], hi[k] - p[k]) for k in range(3))
+        if inside >= 0:
+            return inside
+        return -math.sqrt(sum(max(lo[k] - p[k], p[k] - hi[k], 0.0) ** 2 for k in range(3)))
 
     def inradius(self) -> float:
         ext = self.hi - self.lo

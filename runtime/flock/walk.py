@@ -15,13 +15,32 @@ Region-constrained walk (5.2): a depth-first look-ahead from the node a flock re
 At each node of the search the out-edges whose centroid track stays inside the region at every
 frame (blends included) are tried in random order -- biased towards edges that end deeper
 inside (``depth_jitter`` metres of random slack) -- and the first path found is the flock's plan.
-A path counts when it runs ``2 * horizon`` beyond its first edge and ends ``safe_depth`` inside,
-so the plan after the edge being committed is always a verified way to stay inside for at least
-``horizon`` (a "backup"). A new look-ahead runs when less than ``horizon`` is left; a failed one
-keeps the backup and tries again at the next node. Look-ahead runs ahead of time, under a
-per-tick budget of node expansions (a flock with nothing verified left at a node searches at
-once); if even that fails the flock takes the longest inside path, or the edge leaving the region
-last (``stats["fallbacks"]``, zero in the tests and benchmarks).
+A path counts when it runs ``search_factor * horizon`` (80 s by default) beyond its first edge
+and ends ``safe_depth`` inside. The plan is kept about that long: once less than
+``(search_factor - 1) * horizon`` of it would be left beyond the edge taken at the next node,
+a look-ahead *extends* it from its end (a few expansions), so every edge a flock commits to is
+followed by at least that much verified future.
+
+Why so far ahead: a region has dead ends -- states (node, position, heading) from which every
+path of the graph leaves the region sooner or later, e.g. a flock skimming a wall on a run of
+single-exit nodes. They can be tens of seconds deep, and a look-ahead that sees only part of
+the way commits to them and finds out when no choice is left. (Measured on the 3D test graph,
+a 70 x 40 x 70 m box: one committed edge left a flock 24.5 s from certain exit; on sparser 3D
+graphs and smaller boxes dead ends of 40 s and more occur. The previous walk verified 20 s
+per search and searched again only once the plan *after the current edge* was under 10 s, so
+an edge taken next could be followed by 5 s of verified future.) When the plan's end has no
+continuation, the plan leads into a dead end: a fresh search from the next node replaces it
+(``stats["replans"]`` counts these) while the dead end is still a plan's length away. A failed
+look-ahead keeps the plan (or a verified path lasting longer) and tries again at the next node.
+(Measured: 20 flocks for 10 minutes on graphs of 16 recordings per dimension, 5 walk seeds,
+the test regions, plus 50 x 30 x 50 m boxes and a 60 m L: no flock left its region in 192 runs;
+with the previous walk flocks left in 56 of 112 of those runs.)
+Look-ahead runs ahead of time, under a per-tick budget of node expansions (a flock with nothing
+verified left at a node searches at once); if even that fails the flock takes the longest
+inside path, or else a recovery path (:meth:`FlockSystem._recovery_path`: the most time deep
+inside over the next ``2 * horizon``, not verified, re-aimed at every node until a verified
+plan exists), which also brings back a flock that is outside, e.g. after
+:meth:`FlockSystem.set_region` (``stats["fallbacks"]``, zero in the tests and benchmarks).
 
 The search tests cheap bounding circles (whole edge, then runs of 8 frames) against a
 plain-Python lower bound of the region's depth (:meth:`Region.depth_bound`; an inconclusive
@@ -68,16 +87,21 @@ def _uniform(seed: int, flock, counter, salt=0) -> np.ndarray:
 class FlockSystem:
     """Many flocks walking one DDG. See the module docstring.
 
-    Parameters: ``seed``; ``horizon`` (seconds of verified future a region flock keeps; a new
-    look-ahead runs when less is left); ``search_factor`` (a look-ahead path must run
-    ``search_factor * horizon`` beyond its first edge); ``safe_depth`` (metres inside the region
-    a look-ahead path must end, at most half the region's inradius); ``depth_jitter``
-    (metres of random slack in the inward bias); ``plan_budget`` (DFS node expansions per
-    :meth:`step` for look-ahead ahead of time); ``search_limit`` (expansions per search);
-    ``max_depth`` (edges a plan may hold); ``frame_exact`` (False: an edge counts as inside only
-    if circles around runs of 8 frames of its centroid track are certified inside by the
-    region's depth grid alone -- an inconclusive grid cell counts as outside, so no exact polygon
-    test runs; cheaper, and it keeps flocks a circle radius plus a grid cell, typically about a
+    Parameters: ``seed``; ``horizon`` (seconds: a look-ahead extends a region flock's verified
+    plan by at least this much); ``search_factor`` (a look-ahead path must run
+    ``search_factor * horizon`` beyond its first edge, and a new look-ahead runs when the plan
+    beyond the edge taken next would be shorter than ``(search_factor - 1) * horizon``: with
+    the defaults a flock always knows 70-80 s of its future, which is what lets it turn away
+    from dead ends of the region in time -- see the module docstring); ``safe_depth`` (metres
+    inside the region a look-ahead path must end, at most half the region's inradius);
+    ``depth_jitter`` (metres of random slack in the inward bias); ``plan_budget`` (DFS node
+    expansions per :meth:`step` for look-ahead ahead of time); ``search_limit`` (expansions per
+    search); ``max_depth`` (edges a plan may hold; default: twice a search path of
+    ``search_factor + 1`` horizons of the graph's shortest edges, at least 96); ``frame_exact``
+    (False: an edge counts as inside only if circles around runs of 8 frames of its centroid
+    track are certified inside by the region's depth grid alone -- an inconclusive grid cell
+    counts as outside, so no exact polygon test runs; cheaper, and it keeps flocks a circle
+    radius plus a grid cell, typically about a
     metre, off the boundary; True: inconclusive circles are settled exactly and frames near the
     boundary are tested one by one).
 
@@ -87,8 +111,8 @@ class FlockSystem:
     """
 
     def __init__(self, ddg: DDG, *, seed: int = 0, horizon: float = 10.0, plan_budget: int = 100,
-                 search_limit: int = 800, max_depth: int = 96, depth_jitter: float = 10.0,
-                 safe_depth: float = 10.0, search_factor: float = 2.0, frame_exact: bool = False):
+                 search_limit: int = 800, max_depth: int | None = None, depth_jitter: float = 10.0,
+                 safe_depth: float = 10.0, search_factor: float = 8.0, frame_exact: bool = False):
         ddg.validate()
         self.ddg = ddg
         d = ddg.derived()
@@ -100,12 +124,18 @@ class FlockSystem:
         E = ddg.n_edges
         self.horizon_frames = max(1, int(round(horizon * self.fps)))
         self.search_frames = int(round(search_factor * self.horizon_frames))
+        # a plan is extended once it would run less than this beyond the edge taken next
+        self.keep_frames = max(self.horizon_frames, self.search_frames - self.horizon_frames)
         self.depth_jitter = float(depth_jitter)
         self.safe_depth = float(safe_depth)
         self.frame_exact = bool(frame_exact)
         self._safe: dict = {}
         self._info: dict = {}
         self._fast: dict = {}
+        if max_depth is None:
+            # room for twice a search path (search_factor + 1 horizons) of the shortest edges
+            shortest = max(1, int(d["edge_len"].min()))
+            max_depth = max(96, 2 * -(-(self.search_frames + self.horizon_frames) // shortest))
         self.cap = int(max_depth)
         self.plan_budget = int(plan_budget)
         self.search_limit = int(search_limit)
@@ -152,18 +182,19 @@ class FlockSystem:
         self._eyaw_l = self._eyaw.tolist()
         self._etr_l = [tuple(r) for r in self._etr.tolist()]
         self._edst_l = self._edst.tolist()
+        self._eend_l = [tuple(r) for r in track[ts[1:] - 1].tolist()]   # centroid at each edge's end
         # flock state
         self.regions: list[Region] = []
         self._region_ids: dict = {}
         self._alloc(0)
         self.time = 0.0
-        self.stats = {"transitions": 0, "searches": 0, "expansions": 0, "search_failures": 0,
-                      "fallbacks": 0}
+        self.stats = {"transitions": 0, "searches": 0, "expansions": 0, "replans": 0,
+                      "search_failures": 0, "fallbacks": 0}
         self._cache = None
 
     # ------------------------------------------------------------------ state
     _STATE = ("_edge", "_phase", "_yaw", "_trans", "_perm", "_plan_buf", "_count", "_backup",
-              "_pending", "_counter", "_region")
+              "_pending", "_stuck", "_recover", "_counter", "_region")
 
     def _alloc(self, n):
         self._edge = np.zeros(n, np.int64)          # current edge
@@ -175,6 +206,8 @@ class FlockSystem:
         self._count = np.zeros(n, np.int64)
         self._backup = np.zeros(n, np.int64)        # frames in the plan
         self._pending = np.zeros(n, bool)           # look-ahead for the next node still to do
+        self._stuck = np.zeros(n, bool)             # the plan's end has no verified extension
+        self._recover = np.zeros(n, bool)           # the plan is a recovery path (not verified)
         self._counter = np.zeros(n, np.uint64)      # random stream position
         self._region = np.full(n, -1, np.int64)
 
@@ -247,7 +280,7 @@ class FlockSystem:
                 tr0 = positions[j] - self._rot3(np.array([yaw0]), self._embed(self._node_centroid[v])[None])[0]
                 if self.dim == 2:
                     tr0[1] = positions[j][1]
-                self._count[f] = 0
+                self._set_plan(f, [])
                 if reg is None:
                     self._set_plan(f, [self._random_edges(np.array([f]), np.array([v]))[0]])
                     break
@@ -263,8 +296,7 @@ class FlockSystem:
     def set_region(self, flock: int, region: Region | None) -> None:
         """Change a flock's region (``None``: random walk); decided again at its next node."""
         self._region[flock] = -1 if region is None else self._region_index(region)
-        self._count[flock] = 0
-        self._backup[flock] = 0
+        self._set_plan(flock, [])
         self._pending[flock] = region is not None
 
     def _region_index(self, region) -> int:
@@ -287,6 +319,8 @@ class FlockSystem:
         self._plan_buf[f, :len(path)] = path
         self._count[f] = len(path)
         self._backup[f] = int(self._elen[path].sum()) if path else 0
+        self._stuck[f] = False
+        self._recover[f] = False
 
     def _take_next(self, flocks):
         """Pop the first planned edge of each flock (all have count > 0)."""
@@ -297,6 +331,7 @@ class FlockSystem:
         return e
 
     _CHUNK = 8     # centroid samples per bounding circle in the look-ahead
+    _ROLLOUTS = 32  # random walks a recovery path is chosen from
 
     def _node_info(self, v):
         """Per-node look-ahead data (cached): out-edge ids and, per out-edge, its centroid samples
@@ -391,11 +426,13 @@ class FlockSystem:
             b = self._fast[key] = region.depth_bound()
         return b
 
-    def _search(self, f, region, v, yaw, trans, need):
+    def _search(self, f, region, v, yaw, trans, need, prefix=()):
         """Depth-first look-ahead (paper 5.2) from node ``v`` with the clip placed by (yaw, trans):
         out-edges in random order (biased towards the inside), the first path whose centroid
         stays inside, that runs ``need`` frames beyond its first edge and ends at least the safe
-        depth inside. Returns ``(path, found)``; when not found, the longest inside path seen."""
+        depth inside. ``prefix`` (the flock's plan, verified already) is taken as given and the
+        search extends it from its end. Returns ``(path, found)``, ``path`` including the
+        prefix; when not found, the longest inside path seen."""
         self.stats["searches"] += 1
         rnd = random.Random(int(_uniform(self.seed, f, self._counter[f], 3) * 2.0 ** 53))
         self._counter[f] += np.uint64(1)
@@ -415,28 +452,40 @@ class FlockSystem:
             return ok, depth
 
         safe = self._safe_depth(region)
+        y = float(yaw)
         tx, ty, tz = (float(a) for a in trans)
+        path = list(prefix)
+        frames = 0
+        for e in path:                       # the placement at the end of the prefix
+            frames += elen[e]
+            c, s = math.cos(y), math.sin(y)
+            ex, ey, ez = etr[e]
+            tx, ty, tz = tx + c * ex + s * ez, ty + ey, tz - s * ex + c * ez
+            y += eyaw[e]
+            v = edst[e]
+        base = len(path)
+        best, best_frames = list(path), frames
+        if base >= self.cap:
+            return best, False
         # stack entries: [node, yaw, tx, ty, tz, frames, edges, end depths, next]
-        stack = [[v, float(yaw), tx, ty, tz, 0, *children(v, float(yaw), tx, ty, tz), 0]]
-        path: list[int] = []
-        best: list[int] = []
-        best_frames = -1
+        stack = [[v, y, tx, ty, tz, frames, *children(v, y, tx, ty, tz), 0]]
         found = False
         while stack:
             top = stack[-1]
             i = top[8]
             if i >= len(top[6]):
                 stack.pop()
-                if path:
+                if len(path) > base:
                     path.pop()
                 continue
             e = top[6][i]
             top[8] = i + 1
             frames = top[5] + elen[e]
             path.append(e)
-            # the first edge is the one committed now; the rest must cover the horizon and end
-            # well inside, so a verified continuation is left whatever the next look-ahead finds
-            if frames - elen[path[0]] >= need and top[7][i] >= safe:
+            # the first edge is the one committed now; the rest must cover the look-ahead and
+            # end well inside, so a verified continuation is left whatever the next search finds
+            beyond = frames - elen[path[0]]
+            if beyond >= need and top[7][i] >= safe:
                 best, found = list(path), True
                 break
             if frames > best_frames:
@@ -463,12 +512,37 @@ class FlockSystem:
         return self._safe[key]
 
     def _look_ahead(self, f, v, yaw, trans, forced=False) -> bool:
-        """Choose what flock ``f`` does at node ``v`` (clip placed by ``yaw, trans``): a fresh
-        path of >= horizon inside the region replaces the plan. Without one the remaining
-        (already verified) plan is kept; a flock with no plan left takes the longest inside
-        path, or the edge that leaves the region last (``stats['fallbacks']``)."""
+        """Keep flock ``f``'s verified plan long (the clip arriving at node ``v`` placed by
+        ``yaw, trans``; the plan's first edge is the one taken at ``v``). First the plan is
+        extended from its end, so that it runs ``search_factor * horizon`` beyond its first
+        edge and ends ``safe_depth`` inside. If its end has no such continuation (the plan
+        leads towards a dead end of the region: a place from which every path leaves it), a
+        fresh search from ``v`` replaces the plan while the flock is still far from that end
+        (``stats['replans']`` counts these fresh searches). Without either the remaining
+        (verified) plan is kept, or a verified path lasting longer, and the next node tries
+        again; a flock with no plan left takes the longest inside path, or a recovery path
+        (``stats['fallbacks']``)."""
         region = self.regions[self._region[f]]
-        path, found = self._search(f, region, v, yaw, trans, self.search_frames)
+        need = self.search_frames
+        if self._recover[f]:
+            # on a recovery path: back to a verified plan as soon as there is one (a horizon of it
+            # is enough to start with: the next look-ahead extends it), else re-aim
+            path, found = self._search(f, region, v, yaw, trans, self.horizon_frames)
+            if found:
+                self._set_plan(f, path)
+                return True
+            self._set_plan(f, self._recovery_path(f, region, v, yaw, trans))
+            self._recover[f] = True
+            return False
+        n = int(self._count[f])
+        if n and not self._stuck[f]:
+            path, found = self._search(f, region, v, yaw, trans, need, self._plan_buf[f, :n].tolist())
+            if found:
+                self._set_plan(f, path)
+                return True
+            self._stuck[f] = True            # the same end fails again: fresh searches until it changes
+            self.stats["replans"] += 1
+        path, found = self._search(f, region, v, yaw, trans, need)
         if found:
             self._set_plan(f, path)
             return True
@@ -478,19 +552,61 @@ class FlockSystem:
             self._set_plan(f, path)
         if forced and self._count[f] == 0:
             self.stats["fallbacks"] += 1
-            self._set_plan(f, path if path else [self._latest_exit(region, v, yaw, trans)])
+            if path:
+                self._set_plan(f, path)
+            else:
+                self._set_plan(f, self._recovery_path(f, region, v, yaw, trans))
+                self._recover[f] = True
         return False
 
-    def _latest_exit(self, region, v, yaw, trans) -> int:
-        """The out-edge of node ``v`` whose centroid stays inside the longest."""
-        o0, o1 = self._out_start[v], self._out_start[v + 1]
-        a, b = self._node_samp[v], self._node_samp[v + 1]
-        S = self._samp[a:b]
-        inside = region.contains(self._rot3(np.full(len(S), yaw), S) + trans)
-        starts = np.append(self._oe_samp[o0:o1], b) - a
-        runs = [len(seg) if seg.all() else int(np.argmin(seg))
-                for seg in (inside[starts[k]:starts[k + 1]] for k in range(o1 - o0))]
-        return int(self._out_edges[o0 + int(np.argmax(runs))])
+    def _recovery_path(self, f, region, v, yaw, trans) -> list:
+        """Last resort, when no out-edge of node ``v`` stays inside (the flock is about to
+        leave, or is outside already, e.g. after :meth:`set_region`): of ``_ROLLOUTS`` random
+        walks of ``2 * horizon`` from ``v`` (the first one always taking the edge ending
+        deepest, the others a random edge or, half the time, that one), the one with the
+        largest time-averaged depth (sampled at edge ends, counted up to ``safe_depth``): it
+        gets in soonest and stays in, rather than swinging out to end deep, and random walks
+        find the turns a flock heading away needs (a depth-first search spends its budget on
+        the last edges of one such walk). Such a plan is not verified: the flock looks ahead
+        again at every node (a verified plan replaces it as soon as there is one, else a new
+        recovery path), so it heads back in."""
+        depth = region.depth_point
+        elen, eyaw, etr, edst, eend = self._elen_l, self._eyaw_l, self._etr_l, self._edst_l, self._eend_l
+        out_start, out_edges = self._out_start, self._out_edges
+        limit = 2 * self.horizon_frames
+        safe = self._safe_depth(region)
+        rnd = random.Random(int(_uniform(self.seed, f, self._counter[f], 5) * 2.0 ** 53))
+        self._counter[f] += np.uint64(1)
+        y0 = float(yaw)
+        t0 = tuple(float(a) for a in trans)
+        best, best_score = None, float("-inf")
+        evals = 0
+        for r in range(self._ROLLOUTS):
+            node, y, (tx, ty, tz) = v, y0, t0
+            frames, acc, path = 0, 0.0, []
+            while frames < limit and len(path) < self.cap:
+                c, s = math.cos(y), math.sin(y)
+                kids = out_edges[out_start[node]:out_start[node + 1]].tolist()
+                ds = []
+                for e in kids:
+                    px, py, pz = eend[e]
+                    ds.append(depth(c * px + s * pz + tx, py + ty, -s * px + c * pz + tz))
+                evals += len(kids)
+                k = max(range(len(kids)), key=ds.__getitem__)
+                if r and rnd.random() < 0.5:
+                    k = rnd.randrange(len(kids))
+                e = kids[k]
+                path.append(e)
+                frames += elen[e]
+                acc += min(ds[k], safe) * elen[e]
+                ex, ey, ez = etr[e]
+                tx, ty, tz = tx + c * ex + s * ez, ty + ey, tz - s * ex + c * ez
+                y += eyaw[e]
+                node = edst[e]
+            if acc / frames > best_score:
+                best, best_score = path, acc / frames
+        self.stats["expansions"] += evals
+        return best
 
     def _plan_ahead(self):
         """Budgeted look-ahead for the node each region flock reaches next (soonest first)."""
@@ -516,7 +632,12 @@ class FlockSystem:
         self._yaw[flocks] = y + self._eyaw[e]
         self._perm[flocks] = np.take_along_axis(self._eperm[e], self._perm[flocks], axis=1)
         self._edge[flocks] = e
-        self._pending[flocks] = (self._region[flocks] >= 0) & (self._backup[flocks] < self.horizon_frames)
+        # look ahead when the verified plan beyond the edge taken at the next node (the edge
+        # this look-ahead commits) would be shorter than keep_frames; on a recovery path, always
+        cnt = self._count[flocks]
+        nxt = np.where(cnt > 0, self._elen[self._plan_buf[flocks, 0]], 0)
+        short = (self._backup[flocks] - nxt < self.keep_frames) | self._recover[flocks]
+        self._pending[flocks] = (self._region[flocks] >= 0) & (cnt < self.cap) & short
 
     def step(self, dt: float) -> None:
         """Advance every flock by ``dt`` seconds."""
@@ -530,12 +651,11 @@ class FlockSystem:
                     break
                 free = over[self._region[over] < 0]
                 reg = over[self._region[over] >= 0]
-                for f in reg:
-                    if self._count[f] == 0:          # nothing verified left: look ahead now
-                        self._pending[f] = False
-                        e = self._edge[f]
-                        self._look_ahead(int(f), int(self._edst[e]), float(self._yaw[f]),
-                                         self._trans[f], forced=True)
+                for f in reg[self._count[reg] == 0]:  # nothing verified left: look ahead now
+                    self._pending[f] = False
+                    e = self._edge[f]
+                    self._look_ahead(int(f), int(self._edst[e]), float(self._yaw[f]),
+                                     self._trans[f], forced=True)
                 nxt = np.empty(over.size, np.int64)
                 isfree = self._region[over] < 0
                 if free.size:
