@@ -52,9 +52,9 @@ from enum import Enum
 import numpy as np
 
 from .crowd.scenario import BOX_REACH
+from .crowd.motion_cache import MotionCache
 from .crowd.scheduler import idle_track, still_nodes
 from .crowd.spacetime import SpaceTimeIndex
-from .crowd.motion_cache import MotionCache
 from .crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .crowd.tracks import Track, evaluate_poses
 from .motion.fk import forward_kinematics

@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..motion.graph import STATES
+from .motion_cache import MotionCache
 from .scenario import Scenario, ScenarioError, planning_order
 from .spacetime import SpaceTimeIndex
-from .motion_cache import MotionCache
 from .synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams, compose
 from .tracks import Track, concat_tracks
 

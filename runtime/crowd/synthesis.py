@@ -148,8 +148,8 @@ class SynthesisParams:
                                    # motion by a few cm, and seeds hugging a door post collided there)
     end_clearance: float = 0.65    # m from static obstacles a seed's edge must end (away from the goal),
                                    # so it can walk on (a walking cylinder is up to 0.63 m); 0: off
-    reuse_motions: bool = True     # scheduler: a motion found for one character is tried first for the
-                                   # next with the same task relative to its start (motion_cache)
+    reuse_motions: bool = True     # scheduler and World: a motion found for one character is tried first
+                                   # for the next with the same task relative to its start (motion_cache)
     fps: float = 30.0
 
     @property
@@ -967,6 +967,10 @@ class SegmentPlanner:
         planned (section 3.3's final test), the seeds are made again through a detour way
         point beside the first collision, alternately left and right and further out; the
         iterations of all attempts count against N_max.
+
+        With a :attr:`cache`, motions found earlier for the same task (another character's,
+        placed at this start) are tried first, each with the final collision test; the search
+        runs only if none is clear, and its clean result is kept for the next.
         """
         g, lib, p = self.g, self.lib, self.p
         key = None
