@@ -15,13 +15,14 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import msgpack
 import numpy as np
 
-__all__ = ["AssetError", "Pack", "save_pack", "load_pack", "atomic_write_bytes", "atomic_path"]
+__all__ = ["AssetError", "Pack", "save_pack", "load_pack", "pack_fields", "atomic_write_bytes", "atomic_path"]
 
 FORMAT = "crowdweave"
 # Largest pack accepted (guards against decoding garbage as a huge allocation).
@@ -180,3 +181,21 @@ def load_pack(path, kind: str | None = None, version: int | None = None,
         except Exception as e:
             raise AssetError(path, f"array {name!r} is malformed: {e}") from None
     return Pack(body["kind"], body["version"], body["meta"], arrays, str(path))
+
+
+@contextmanager
+def pack_fields(path, what: str):
+    """Read a loaded pack's meta and arrays inside this block: any error but an
+    :class:`AssetError` becomes one naming ``path`` as ``"<what>: <Type>: <message>"`` (a
+    missing key, a wrong type, an inconsistent shape), so a bad pack never half-loads.
+
+    Args:
+        path: the pack's file, for the message.
+        what: what is wrong, e.g. ``"motion graph pack is inconsistent"``.
+    """
+    try:
+        yield
+    except AssetError:
+        raise
+    except Exception as e:
+        raise AssetError(path, f"{what}: {type(e).__name__}: {e}") from None
