@@ -2,9 +2,9 @@
 
 Three per-step paths of ``runtime.crowd`` are compiled with numba when it is installed:
 
-* the splice cost of the randomized search (Eq. 1-2, ``search_kernels.pair_costs``);
-* the greedy seed planner's two-edge lookahead (section 3.2, ``search_kernels.lookahead_errors``);
-* the space-time index query (``spacetime._hits_compiled``), which also stops at the first
+* the splice cost of the randomized search (Eq. 1-2, ``planner.kernels.pair_costs``);
+* the greedy seed planner's two-edge lookahead (section 3.2, ``planner.kernels.lookahead_errors``);
+* the space-time index query (the compiled query of ``spacetime``), which also stops at the first
   collision in the final tests (``SpaceTimeIndex.first_overlap``).
 
 This plans the same scenarios twice in one run -- numpy paths only (the kernels switched off)
@@ -31,17 +31,18 @@ for p in (ROOT, ROOT / "samples"):
 
 def plan(sc, graph, env, roadmap, compiled: bool):
     """(seconds, tracks) of one planning run with the kernels on or off."""
-    from runtime.crowd import search_kernels, spacetime
+    from runtime.crowd import spacetime
+    from runtime.crowd.planner import kernels
     from runtime.crowd.scheduler import plan_scenario
-    saved = search_kernels.AVAILABLE, spacetime._nb
+    saved = kernels.ENABLED, spacetime.ENABLED
     try:
         if not compiled:
-            search_kernels.AVAILABLE, spacetime._nb = False, None
+            kernels.ENABLED, spacetime.ENABLED = False, False
         t0 = time.perf_counter()
         res = plan_scenario(sc, graph, env=env, roadmap=roadmap)
         return time.perf_counter() - t0, res
     finally:
-        search_kernels.AVAILABLE, spacetime._nb = saved
+        kernels.ENABLED, spacetime.ENABLED = saved
 
 
 def same_plans(a, b) -> bool:
@@ -61,7 +62,7 @@ def main(argv=None) -> int:
                     help="also a COLSxROWS grid_scenario at 2.2 m spacing (dense: failures and repairs); '' for none")
     args = ap.parse_args(argv)
     from authoring.commands.bake import load_sample
-    from runtime.crowd import search_kernels
+    from runtime.crowd.planner import kernels as search_kernels
     from runtime.crowd.scenario import parse_scenario
     from runtime.library import load_library
 

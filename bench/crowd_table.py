@@ -29,7 +29,7 @@ Figures only, no asserts. Timings are wall-clock on this machine; planning is si
 
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_table.py [--quick] [--only NAME] [--spacings ...] [--quiet]
 
-``--no-reuse`` makes every character search (``SynthesisParams.reuse_motions = False``), as
+``--no-reuse`` makes every character search (``CrowdPolicy.reuse_motions = False``), as
 in the paper; the dense rows of Figure 11 then take 15-30 min each.
 
 ``--quick`` plans at most 10 characters of each sample (a prefix of the planning order, which
@@ -89,19 +89,20 @@ REUSE = True        # --no-reuse: every character searches (the paper's own meth
 
 def run(sc, graph, env, roadmap, eps=None, quiet=True, reuse=None):
     """Plan and check one scenario; returns a dict of the figures. ``reuse``: the planner tries
-    motions found for other characters' same tasks first (``SynthesisParams.reuse_motions``)."""
+    motions found for other characters' same tasks first (``CrowdPolicy.reuse_motions``)."""
     from tqdm import tqdm
 
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scheduler import plan_scenario
-    from runtime.crowd.synthesis import SynthesisParams
+    from runtime.crowd.planner import CrowdPolicy, SearchParams
     eps = tuple(eps or sc.epsilon)
-    params = SynthesisParams(eps=eps, reuse_motions=REUSE if reuse is None else reuse)
+    params = SearchParams(eps=eps)
+    policy = CrowdPolicy(reuse_motions=REUSE if reuse is None else reuse)
     with tqdm(total=len(sc.characters), desc=sc.name, unit="char", leave=False, disable=quiet) as bar:
-        res = plan_scenario(sc, graph, env, roadmap, params=params, progress=bar.update)
+        res = plan_scenario(sc, graph, env, roadmap, params=params, policy=policy, progress=bar.update)
     tracks = {c.name: c.track for c in res.characters}
     rep = check_crowd(sc, tracks, graph, env, res.fps, eps=eps)
-    s = rep["summary"]
+    s = rep.summary()
     n = len(res.characters)
     return {"n": n,
             "duration": sum(c.motion_seconds for c in res.characters) / max(n, 1),

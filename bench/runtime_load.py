@@ -58,7 +58,8 @@ def main(argv=None):
     names = [f"c{i:04d}" for i in range(n)]
     for i in range(n):
         w.spawn(names[i], ((i % side) * a.spacing - half, (i // side) * a.spacing - half), rng.uniform(-math.pi, math.pi))
-    slot = np.array([w._chars[m].slot for m in names])
+    slot = np.array([w.slot(m) for m in names])
+    pb = w.playback
     goals = {}
     arrivals = []
     warnings = []
@@ -80,8 +81,8 @@ def main(argv=None):
         now = w.time
         due = np.flatnonzero(next_goal <= now)
         if len(due):
-            cur = w.buf_root[slot, w.head[slot] % MAX_BUFFER, :2]
-            end = w.buf_root[slot, w.tail[slot] % MAX_BUFFER, :2]
+            cur = pb.buf_root[slot, pb.head[slot] % MAX_BUFFER, :2]
+            end = pb.buf_root[slot, pb.tail[slot] % MAX_BUFFER, :2]
         for i in due:
             # a random reachable point a few metres away, inside the crowd's area
             r = cur[i]
@@ -110,11 +111,11 @@ def main(argv=None):
         plan_ms[k] = w.stats["plan_ms"]
         plan_cpu[k] = w.stats["plan_cpu_ms"]
         steps[k] = w.stats["plan_steps"]
-        fk = w.head[slot] % MAX_BUFFER
-        rec_a[k] = w.buf_a[slot, fk]
-        rec_b[k] = w.buf_b[slot, fk]
-        rec_t[k] = w.buf_t[slot, fk]
-        rec_root[k] = w.buf_root[slot, fk]
+        fk = pb.head[slot] % MAX_BUFFER
+        rec_a[k] = pb.buf_a[slot, fk]
+        rec_b[k] = pb.buf_b[slot, fk]
+        rec_t[k] = pb.buf_t[slot, fk]
+        rec_root[k] = pb.buf_root[slot, fk]
     wall = time.perf_counter() - t_wall
     load = os.getloadavg()
 

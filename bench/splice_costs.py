@@ -1,9 +1,9 @@
 """Benchmark: the splice cost of paper 000 (Eq. 1-2) over one search iteration's motion pairs.
 
-``SegmentPlanner.pair_costs`` costs n_m perturbed (M_f, M_b) pairs every iteration of the
+``runtime.crowd.planner.costs.pair_costs`` costs n_m perturbed (M_f, M_b) pairs every iteration of the
 randomized search: every prefix/suffix split meeting at a node, the per-pair minimum. Compared
 in the same run: the numpy passes (``compiled = False``) and the numba kernel of
-``runtime/crowd/search_kernels.py`` (the default when numba is installed), on random walks of
+``runtime/crowd/planner/kernels.py`` (the default when numba is installed), on random walks of
 the default library of 8-40 clips per motion. Prints the median milliseconds per call and the
 ratio, and checks both give the same (i, j) for every pair.
 
@@ -38,25 +38,28 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=50)
     args = ap.parse_args(argv)
     from authoring.default_library import ensure_library
-    from runtime.crowd import search_kernels
-    from runtime.crowd.synthesis import MotionLibrary, SegmentPlanner
+    from runtime.crowd.planner import MotionLibrary
+    from runtime.crowd.planner import kernels as search_kernels
+    from runtime.crowd.planner.costs import pair_costs
     from runtime.motion.graph import MotionGraph
     g = MotionGraph.load(ensure_library("default", log=lambda *a: None, progress=False))
-    planner = SegmentPlanner(MotionLibrary(g))
+    lib = MotionLibrary(g)
     rng = np.random.default_rng(0)
     print(f"{'motion length':>14}{'pairs':>7}{'numpy ms':>10}{'kernel ms':>11}{'ratio':>8}  same (i, j)")
     for L in (16, 28, 40):
         F, nf, B, nb, start = random_pairs(g, args.pairs, L, rng)
-        planner._start_node, planner._goal_node = start, int(g.edge_dst[B[0, -1]])
+        goal_node = int(g.edge_dst[B[0, -1]])
         s, goal = np.array([0.0, 0.0, 0.0]), np.array([6.0, 4.0, 1.0])
         times, outs = {}, {}
         for compiled in ((False, True) if search_kernels.AVAILABLE else (False,)):
-            planner.compiled = compiled
-            outs[compiled] = planner.pair_costs(F, nf, B, nb, s, goal, (8.0, 10.0))   # (also compiles)
+            def cost():
+                return pair_costs(lib, lib.params, F, nf, B, nb, s, goal, start, goal_node, (8.0, 10.0),
+                                  compiled=compiled)
+            outs[compiled] = cost()   # (also compiles)
             t = []
             for _ in range(args.repeat):
                 t0 = time.perf_counter()
-                planner.pair_costs(F, nf, B, nb, s, goal, (8.0, 10.0))
+                cost()
                 t.append(time.perf_counter() - t0)
             times[compiled] = 1000 * float(np.median(t))
         if True in times:

@@ -1,4 +1,4 @@
-"""Reuse of searched motions between characters with the same task (runtime.crowd.motion_cache).
+"""Reuse of searched motions between characters with the same task (runtime.crowd.planner.motion_cache).
 
 Whether a reused plan is right is the independent checker's call (goal, window, per-frame
 adjustment, overlaps from the tracks); the planner's counters only say which path it took."""
@@ -7,10 +7,10 @@ import math
 import numpy as np
 
 from runtime.crowd.checker import check_crowd
-from runtime.crowd.motion_cache import QUANTUM, MotionCache, task_key
+from runtime.crowd.planner import Config, CrowdPolicy, Goal, SegmentResult
+from runtime.crowd.planner.motion_cache import QUANTUM, MotionCache, task_key
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import plan_scenario
-from runtime.crowd.synthesis import Config, Goal, SegmentResult, SynthesisParams
 from runtime.crowd.tracks import Track
 
 
@@ -25,7 +25,7 @@ def _scenario(chars, duration=20.0):
 
 def _check(sc, res, graph, replace=None):
     rep = check_crowd(sc, {c.name: c.track for c in res.characters} | (replace or {}), graph)
-    return rep["summary"]
+    return rep.summary()
 
 
 def test_task_key_is_the_task_in_the_starts_frame():
@@ -93,8 +93,7 @@ def test_side_by_side_characters_reuse_one_motion(default_graph):
     a, b = res.characters[0].track, res.characters[1].track
     np.testing.assert_array_equal(a.frames_a, b.frames_a)
     np.testing.assert_allclose(b.root[:, 1] - a.root[:, 1], 4.0, atol=1e-9)
-    off = SynthesisParams(reuse_motions=False)
-    res_off = plan_scenario(sc, default_graph, params=off)
+    res_off = plan_scenario(sc, default_graph, policy=CrowdPolicy(reuse_motions=False))
     assert (res_off.reused, res_off.searched) == (0, 0)
     assert _check(sc, res_off, default_graph)["passed"]
 

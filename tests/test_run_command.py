@@ -17,7 +17,7 @@ def test_world_applies_a_scenario(default_graph):
     w = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=1e6)
     w.apply_scenario(sc)
     assert sorted(w.names) == sorted(c.name for c in sc.characters)
-    kinds = {k for k, *_ in w._commands}
+    kinds = {k for k, *_ in w.crowd.commands}
     assert {"sit", "pick_up", "put_down", "go_to"} <= kinds
     boxes = w.box_positions()
     assert boxes.shape == (len(env.markers_with_role("box")), 4)

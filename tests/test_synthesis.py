@@ -9,8 +9,9 @@ import pytest
 
 from runtime.crowd.checker import adjustment_rates, check_crowd, overlapping_pairs
 from runtime.crowd.scenario import parse_scenario, planning_order
-from runtime.crowd.scheduler import plan_scenario, run_to_completion
-from runtime.crowd.synthesis import Config, Goal, MotionLibrary, SegmentPlanner, SynthesisParams
+from runtime.crowd.planner import (Config, CrowdPolicy, Goal, MotionLibrary, SearchParams, SegmentPlanner,
+                                   run_to_completion)
+from runtime.crowd.scheduler import plan_scenario
 from runtime.crowd.tracks import Track
 
 
@@ -33,7 +34,7 @@ def crossing(default_graph):
 def test_crossing_paths_pass_the_checker(crossing, default_graph):
     sc, res = crossing
     rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
-    s = rep["summary"]
+    s = rep.summary()
     assert s["max_position_error_mm"] <= 1.0
     assert s["max_heading_error_deg"] <= 0.1
     assert s["goals_in_window"] == 3 and s["poses_ok"] == 3
@@ -60,14 +61,14 @@ def test_checker_catches_a_moved_goal_and_an_overlap(crossing, default_graph):
     tracks = {c.name: c.track for c in res.characters}
     bad = copy.deepcopy(sc)
     bad.characters[0].goals[0].position = bad.characters[0].goals[0].position + np.array([0.05, 0.0])
-    assert check_crowd(bad, tracks, default_graph)["summary"]["max_position_error_mm"] > 40.0
+    assert check_crowd(bad, tracks, default_graph).summary()["max_position_error_mm"] > 40.0
     # put c1 on top of c0 for the whole scenario
     t0, t1 = tracks["c0"], tracks["c1"]
     tracks2 = dict(tracks)
     tracks2["c1"] = Track(t1.frames_a, t1.frames_b, t1.frames_t, t0.root.copy(), t1.start_frame)
     rep = check_crowd(sc, tracks2, default_graph)
-    assert {"a": "c0", "b": "c1"} in [{k: r[k] for k in ("a", "b")} for r in rep["character_overlaps"]]
-    assert not rep["summary"]["passed"]
+    assert {"a": "c0", "b": "c1"} in [{k: r[k] for k in ("a", "b")} for r in rep.character_overlaps]
+    assert not rep.summary()["passed"]
 
 
 def test_checker_measures_an_added_drift(crossing, default_graph):
@@ -90,7 +91,7 @@ def test_checker_measures_an_added_drift(crossing, default_graph):
 def test_splice_rates_equal_the_checkers(default_graph):
     """A segment with a window that forces time warping: the per-frame adjustment the planner
     promises is what the checker measures on the baked frames (no straddled junction)."""
-    lib = MotionLibrary(default_graph, SynthesisParams())
+    lib = MotionLibrary(default_graph, SearchParams())
     planner = SegmentPlanner(lib)
     node = int(default_graph.nodes_with_label("stand")[0])
     rng = np.random.default_rng(3)
@@ -137,8 +138,8 @@ def test_rooms_box_sample_passes_the_checker(default_graph):
                                           log=lambda *a: None, progress=False)
     res = plan_scenario(sc, graph, env, roadmap)
     rep = check_crowd(sc, {c.name: c.track for c in res.characters}, graph, env)
-    assert rep["summary"]["passed"], rep["summary"]
-    assert not rep["obstacle_overlaps"]
+    assert rep.summary()["passed"], rep.summary()
+    assert not rep.obstacle_overlaps
     # the route does cross the rooms: the motion runs far longer than the straight distance needs
     assert res.characters[0].arrivals[0] / 30.0 > 25.0
 
@@ -162,26 +163,27 @@ def test_standing_at_the_last_goal_is_clear_of_earlier_characters(default_graph,
     sc = _stand_in_the_way_scenario()
     res = plan_scenario(sc, default_graph)
     rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
-    assert rep["summary"]["character_overlap_pairs"] == 0, rep["character_overlaps"]
-    assert rep["summary"]["passed"]
+    assert rep.summary()["character_overlap_pairs"] == 0, rep.character_overlaps
+    assert rep.summary()["passed"]
     c0, c1 = res.characters
     passed_origin = int(np.argmin(np.abs(c0.track.root[:, 0])))
     assert c1.arrivals[0] > passed_origin          # it waited for c0
-    monkeypatch.setattr(sched, "_hold_tail", lambda *a: None)
+    monkeypatch.setattr(sched, "hold_tail", lambda *a: None)
     blind = plan_scenario(_stand_in_the_way_scenario(), default_graph)
     rep = check_crowd(sc, {c.name: c.track for c in blind.characters}, default_graph)
-    assert rep["summary"]["character_overlap_pairs"] == 1
+    assert rep.summary()["character_overlap_pairs"] == 1
 
 
 def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
     """The numba kernel (runtime.crowd.search_kernels) and the numpy passes of pair_costs
     (Eq. 1-2) give the same best cost and the same (i, j) for random motion pairs, with and
     without a time window."""
-    from runtime.crowd import search_kernels
+    from runtime.crowd.planner import kernels as search_kernels
     if not search_kernels.AVAILABLE:
         pytest.skip("numba is not installed: only the numpy path exists")
+    from runtime.crowd.planner.costs import pair_costs
     g = default_graph
-    planner = SegmentPlanner(MotionLibrary(g))
+    lib = MotionLibrary(g)
     rng = np.random.default_rng(3)
     P, L = 120, 24
     F = -np.ones((P, L), np.int64)
@@ -192,13 +194,11 @@ def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
     for p in range(P):
         F[p, :nf[p]] = g.random_walk(start_node, nf[p], rng)
         B[p, L - nb[p]:] = g.random_walk(hub if p % 2 else int(rng.integers(g.num_nodes)), nb[p], rng)
-    planner._start_node, planner._goal_node = start_node, int(g.edge_dst[B[0, -1]])
+    goal_node = int(g.edge_dst[B[0, -1]])
     start, goal = np.array([0.3, -0.2, 0.4]), np.array([5.0, 3.0, -1.0])
     for window in (None, (3.0, 6.0)):
-        planner.compiled = True
-        c1, i1, j1 = planner.pair_costs(F, nf, B, nb, start, goal, window)
-        planner.compiled = False
-        c0, i0, j0 = planner.pair_costs(F, nf, B, nb, start, goal, window)
+        c1, i1, j1 = pair_costs(lib, lib.params, F, nf, B, nb, start, goal, start_node, goal_node, window, compiled=True)
+        c0, i0, j0 = pair_costs(lib, lib.params, F, nf, B, nb, start, goal, start_node, goal_node, window, compiled=False)
         fin = np.isfinite(c0)
         assert fin.sum() > 20 and (~fin).sum() > 0          # both kinds of pairs occur
         np.testing.assert_array_equal(np.isfinite(c1), fin)
@@ -211,7 +211,7 @@ def test_compiled_seed_lookahead_makes_the_numpy_seeds(default_graph):
     """The greedy seed planner (section 3.2) with its two-edge lookahead compiled (numba) walks
     the same edges as with the numpy passes: forward and time-reversed, to a point, to a point
     and heading (the final approach), along a bent way-point path, timed and untimed."""
-    from runtime.crowd import search_kernels
+    from runtime.crowd.planner import kernels as search_kernels
     from runtime.motion.graph import STATES
     if not search_kernels.AVAILABLE:
         pytest.skip("numba is not installed: only the numpy path exists")
@@ -231,7 +231,7 @@ def test_compiled_seed_lookahead_makes_the_numpy_seeds(default_graph):
         for compiled in (True, False):
             planner.compiled = compiled
             seeds.append(planner.greedy(node, start, 0, wps, heading, walking, None, bool(k % 3 == 1),
-                                        np.random.default_rng(0), time_budget=budget))
+                                        time_budget=budget))
         assert seeds[0] == seeds[1]
         cases += len(seeds[0][0]) > 3
     assert cases >= 8          # the seeds walk somewhere
@@ -242,7 +242,7 @@ def test_compiled_clear_test_makes_the_numpy_seeds_among_characters_and_obstacle
     samples, the index query stopping each clip at its first hit), walks the same seeds as the
     numpy gather and per-sample query, with planned characters and a static obstacle in the
     way -- which change the seeds (the test is not vacuous)."""
-    from runtime.crowd import search_kernels
+    from runtime.crowd.planner import kernels as search_kernels
     from runtime.crowd.spacetime import SpaceTimeIndex
     from runtime.motion.graph import STATES
     if not search_kernels.AVAILABLE:
@@ -273,7 +273,7 @@ def test_compiled_clear_test_makes_the_numpy_seeds_among_characters_and_obstacle
             planner = SegmentPlanner(lib, static=static, collide=index.overlaps if coll else None,
                                      collide_runs=index.any_overlap_runs if runs and coll else None)
             planner.compiled = compiled
-            seeds.append(planner.greedy(node, start, 0, wps, None, walking, None, False, np.random.default_rng(0)))
+            seeds.append(planner.greedy(node, start, 0, wps, None, walking, None, False))
         assert seeds[0] == seeds[1]
         changed += seeds[0] != seeds[2]
     assert changed >= 3
@@ -291,7 +291,7 @@ def test_seeds_do_not_wait_for_a_wall(default_graph):
     def waits(static, collide):
         planner = SegmentPlanner(lib, static=static, collide=collide)
         planner.greedy(node, np.zeros(3), 0, np.array([[0.0, 0.0], [0.0, 6.0]]), None, STATES.index("walking"),
-                       None, False, np.random.default_rng(0), time_budget=None)
+                       None, False, time_budget=None)
         return planner.waited
 
     band = lambda xz: (xz[:, 1] > 0.1) & (xz[:, 1] < 2.0) & (np.abs(xz[:, 0]) < 3.0)
@@ -305,12 +305,13 @@ def test_seeds_do_not_wait_for_a_wall(default_graph):
 def test_still_start_node_stands_still_and_the_hub_does_not(default_graph):
     """"stand" labels both a walking hub (the most connected node) and standing nodes; the
     still start node idles within eps, the hub's idling walks on the spot."""
-    from runtime.crowd.scheduler import _start_node, idle_track, still_nodes
+    from runtime.crowd.idle import idle_track, still_nodes
+    from runtime.crowd.scheduler import start_node
     g = default_graph
-    params = SynthesisParams()
+    params = SearchParams()
     still = still_nodes(g, params.eps)
-    hub = _start_node(g, "stand", "x")
-    stand = _start_node(g, "stand", "x", still)
+    hub = start_node(g, "stand", "x")
+    stand = start_node(g, "stand", "x", still)
     assert hub != stand and still[stand] and not still[hub]
     lib = MotionLibrary(g, params)
     for node, ok in ((stand, True), (hub, False)):
@@ -323,16 +324,16 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
     """When the plan from the first start node has warnings, the scheduler plans the character
     again from the other kind of "stand" node and keeps the clean plan."""
     import runtime.crowd.scheduler as sched
-    real = sched._plan_character
+    real = sched.plan_goals
     calls = []
 
     def fake(*args, **kw):
-        node = args[12]          # (sc, graph, env, roadmap, params, lib, fps, n_total, static, index, results, ci, node, rng)
+        node = args[3]           # (ctx, results, ci, node, rng)
         calls.append((node, kw.get("retry")))
         out = real(*args, **kw)
         return out if len(calls) > 1 else out[:3] + (["forced warning"], out[4])
 
-    monkeypatch.setattr(sched, "_plan_character", fake)
+    monkeypatch.setattr(sched, "plan_goals", fake)
     sc = parse_scenario({"name": "one", "duration": 8.0, "seed": 0, "synthesis": {"passes": 1},
                          "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
                                         "goal": [{"position": [0.0, 4.0]}]}]})
@@ -352,8 +353,8 @@ def test_further_tries_at_a_failed_segment_get_retry_n_max_iterations(default_gr
                              "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0,
                                                                     "pose": "stand"},
                                             "goal": [{"position": [0.0, 4.0]}]}]})
-        prm = SynthesisParams(eps=sc.epsilon, n_max=40, retry_n_max=15)
-        res = plan_scenario(sc, default_graph, params=prm)
+        prm = SearchParams(eps=sc.epsilon, n_max=40)
+        res = plan_scenario(sc, default_graph, params=prm, policy=CrowdPolicy(retry_n_max=15))
         assert res.characters[0].warnings
         assert res.characters[0].iterations == want
 
@@ -399,13 +400,12 @@ def test_a_seed_holding_a_box_turns_round(default_graph):
     assert not turns_on_spot.any()            # the premise: no clip turns it round where it stands
 
     def end(max_turns):
-        lib = MotionLibrary(g, SynthesisParams(max_turns=max_turns))
+        lib = MotionLibrary(g, SearchParams(max_turns=max_turns))
         planner = SegmentPlanner(lib)
         target = np.array([[0.0, 0.0], [0.5, -4.0]])                # behind the character (facing +Z)
-        edges, _ = planner.greedy(node, np.zeros(3), 0, target, None, carrying, None, False,
-                                  np.random.default_rng(0), time_budget=None)
+        edges, _ = planner.greedy(node, np.zeros(3), 0, target, None, carrying, None, False, time_budget=None)
         c = np.zeros(3)
-        from runtime.crowd.synthesis import compose
+        from runtime.motion.planar import compose
         for e in edges:
             c = compose(c, lib.disp[e])
         return np.hypot(c[0] - 0.5, c[1] + 4.0)
@@ -417,6 +417,7 @@ def test_a_seed_holding_a_box_turns_round(default_graph):
 def test_splice_to_a_given_number_of_frames(default_graph):
     """splice(frames=m) resamples the same pair to m + 1 output frames ending exactly in the
     goal, and refuses a duration outside the window."""
+    from runtime.crowd.planner.splice import splice
     lib = MotionLibrary(default_graph)
     planner = SegmentPlanner(lib)
     node = int(default_graph.nodes_with_label("stand")[0])
@@ -425,17 +426,16 @@ def test_splice_to_a_given_number_of_frames(default_graph):
     assert res.ok
     F, B = np.array(res.edges), np.array([-1])
     goal_cfg = res.root[-1]
-    planner._start_node, planner._goal_node = node, res.end.node
     m0 = len(res.root) - 1
     raw = int(sum(default_graph.edge_frames[e] - 1 for e in F))      # source frames of the pair
     for m in (m0 - 6, m0 + 6):
-        r = planner.splice(Config(node, 0.0, 0.0, 0.0, 0), goal_cfg, res.end.node, F, len(F), B, 1, (4.0, 8.0),
-                           0, frames=m)
+        r = splice(lib, lib.params, Config(node, 0.0, 0.0, 0.0, 0), goal_cfg, res.end.node, F, len(F), B, 1,
+                   (4.0, 8.0), frames=m)
         assert len(r.root) == m + 1
         np.testing.assert_allclose(r.root[-1], goal_cfg, atol=1e-9)
         assert r.rates[2] == pytest.approx(abs(raw / m - 1.0), abs=1e-9)
-    assert planner.splice(Config(node, 0.0, 0.0, 0.0, 0), goal_cfg, res.end.node, F, len(F), B, 1, (4.0, 8.0),
-                          0, frames=int(9.0 * 30)) is None
+    assert splice(lib, lib.params, Config(node, 0.0, 0.0, 0.0, 0), goal_cfg, res.end.node, F, len(F), B, 1,
+                  (4.0, 8.0), frames=int(9.0 * 30)) is None
 
 
 def _repair_setup(monkeypatch, plans):
@@ -455,13 +455,13 @@ def _repair_setup(monkeypatch, plans):
                    np.tile([x, 0.0, 0.0], (n, 1)), 0)
         return sched.CharacterResult(name, tr, [30], [], list(warnings), 1.0, 10)
 
-    ctx = sched._Context(sc, graph, None, None, SynthesisParams(), None, 30.0, 31, None,
+    ctx = sched.PlanContext(sc, graph, None, None, SearchParams(), CrowdPolicy(), None, 30.0, 31, None,
                          SpaceTimeIndex(cell=1.2), None, None)
     results = {0: result("a", 0.0), 1: result("b", 5.0), 2: result("c", 0.2, ["c collides"])}
     for ci, r in results.items():
         ctx.insert(ci, r.track)
     made = {key: result(*spec) for key, spec in plans.items()}
-    monkeypatch.setattr(sched, "_plan_one", lambda ctx, results, ci, k, attempt=0: made[(ci, attempt)])
+    monkeypatch.setattr(sched, "plan_one", lambda ctx, results, ci, k, attempt=0: made[(ci, attempt)])
     return sched, ctx, results, made
 
 
@@ -471,7 +471,7 @@ def test_repair_displaces_a_blocker_and_keeps_it_only_if_all_come_out_clean(monk
     sched, ctx, results, made = _repair_setup(monkeypatch, {
         (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5)})
     old_a = results[0]
-    sched._repair(ctx, results, [2], 1)
+    sched.repair(ctx, results, [2], 1)
     assert results[2] is made[(2, 2)] and results[0] is made[(0, 3)] and results[1].track.root[0, 0] == 5.0
     assert results[2].seconds == 3.0 and results[0].seconds == old_a.seconds + 1.0
     # the index holds exactly the kept plans: a moved to x = 2.5, c at 0
@@ -484,7 +484,7 @@ def test_repair_puts_everything_back_when_a_blocker_fails(monkeypatch):
     sched, ctx, results, made = _repair_setup(monkeypatch, {
         (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5, ["a fails"])})
     old = dict(results)
-    sched._repair(ctx, results, [2], 1)
+    sched.repair(ctx, results, [2], 1)
     assert results[0] is old[0] and results[1] is old[1]
     assert results[2].warnings and results[2].track.root[0, 0] in (0.2, 0.1)
     assert results[2].seconds == 4.0          # its old plan and three tries (one of them a's)
@@ -503,7 +503,7 @@ def test_a_seat_is_approached_from_in_front(default_graph):
     start = Config(node, 6.0, 0.5, np.radians(-90.0), 0)   # comes in from the side (+X)
 
     def closest(ap, nodes):
-        lib = MotionLibrary(g, SynthesisParams(approach_point=ap))
+        lib = MotionLibrary(g, SearchParams(approach_point=ap))
         res = run_to_completion(SegmentPlanner(lib).run(start, Goal(seat, facing, nodes, None), np.random.default_rng(0)))
         assert res.ok
         return np.hypot(res.root[:, 0] - 0.0, res.root[:, 1] - 1.2).min()
@@ -516,7 +516,8 @@ def test_pairs_static_clear_agrees_with_a_frame_by_frame_test(default_graph):
     """The search's static pre-test of motion pairs (M_f[:i] placed at the start, M_b[j:] at the
     goal, tested at the library's collision samples) against an independent test of every
     frame of the same clips: it never flags a pair that is clear, and misses few."""
-    from runtime.crowd.synthesis import compose
+    from runtime.crowd.planner.costs import pairs_static_clear
+    from runtime.motion.planar import compose
     g = default_graph
     wall_x = 2.5
     static = lambda xz: wall_x - np.asarray(xz)[:, 0]          # a wall filling x > 2.5
@@ -533,7 +534,7 @@ def test_pairs_static_clear_agrees_with_a_frame_by_frame_test(default_graph):
     i = np.array([rng.integers(0, n + 1) for n in nf])
     j = np.array([rng.integers(L - n, L + 1) for n in nb])
     start, goal = np.array([0.0, 0.0, 0.3]), np.array([0.5, 6.0, 2.0])
-    got = planner.pairs_static_clear(F, B, i, j, start, goal)
+    got = pairs_static_clear(planner.lib, static, planner.p.margin, F, B, i, j, start, goal)
 
     def frames_clear(c, edges):
         for e in edges:
@@ -565,18 +566,19 @@ def test_a_character_with_time_to_wait_starts_on_a_still_node(default_graph, mon
     could walk there is planned first from a node where it can stand and wait; one without
     a window (or with a tight one) first from the walking hub. Setting the key overrides."""
     import runtime.crowd.scheduler as sched
-    from runtime.crowd.scheduler import _start_node, still_nodes
+    from runtime.crowd.idle import still_nodes
+    from runtime.crowd.scheduler import start_node
     g = default_graph
-    still = still_nodes(g, SynthesisParams().eps)
-    hub, stand = _start_node(g, "stand", "x"), _start_node(g, "stand", "x", still)
+    still = still_nodes(g, SearchParams().eps)
+    hub, stand = start_node(g, "stand", "x"), start_node(g, "stand", "x", still)
     first = {}
-    real = sched._plan_character
+    real = sched.plan_goals
 
-    def spy(*args, **kw):
-        first.setdefault(args[0].characters[args[11]].name, args[12])
-        return real(*args, **kw)
+    def spy(ctx, results, ci, node, *args, **kw):
+        first.setdefault(ctx.sc.characters[ci].name, node)
+        return real(ctx, results, ci, node, *args, **kw)
 
-    monkeypatch.setattr(sched, "_plan_character", spy)
+    monkeypatch.setattr(sched, "plan_goals", spy)
 
     def scenario(**syn):
         chars = [{"name": name, "start": {"position": [3.0 * k, 0.0], "heading": 0.0, "pose": "stand"},
@@ -603,7 +605,7 @@ def test_a_seated_character_leaves_through_the_point_in_front_of_its_seat(defaul
     seated = Config(sit, 1.0, 0.0, np.radians(-90.0), 0)          # faces -X: "in front" is -X
 
     def wps(ap, start):
-        return SegmentPlanner(MotionLibrary(g, SynthesisParams(approach_point=ap))).waypoints(start, goal)
+        return SegmentPlanner(MotionLibrary(g, SearchParams(approach_point=ap))).waypoints(start, goal)
 
     np.testing.assert_allclose(wps(2.0, seated), [[1.0, 0.0], [-1.0, 0.0], [6.0, 0.3]], atol=1e-12)
     np.testing.assert_allclose(wps(0.0, seated), [[1.0, 0.0], [6.0, 0.3]])
@@ -611,7 +613,7 @@ def test_a_seated_character_leaves_through_the_point_in_front_of_its_seat(defaul
     np.testing.assert_allclose(wps(2.0, standing), [[1.0, 0.0], [6.0, 0.3]])
     # and a goal within twice the distance of that point: straight there
     near = Goal(np.array([-1.0, 3.0]), None, stand, None)
-    lib = MotionLibrary(g, SynthesisParams(approach_point=2.0))
+    lib = MotionLibrary(g, SearchParams(approach_point=2.0))
     np.testing.assert_allclose(SegmentPlanner(lib).waypoints(seated, near), [[1.0, 0.0], [-1.0, 3.0]])
 
 
@@ -620,7 +622,7 @@ def test_a_seated_character_holds_its_seat_until_it_is_planned(default_graph):
     seat: until it is planned, its seat is held (for the frames before it could leave), so
     the walker goes round it and the seated character's plan comes out clean."""
     from runtime.crowd.environment import Environment, Marker
-    from runtime.crowd.scheduler import _seat_hold, _seated_radius
+    from runtime.crowd.scheduler import seat_hold, seated_radius
     g = default_graph
     env = Environment(markers=[Marker("/World/Seats/s", "seat", [0.0, 0.0], np.radians(90.0))])
     data = {"name": "hold", "duration": 16.0, "seed": 0, "synthesis": {"passes": 1},
@@ -630,24 +632,24 @@ def test_a_seated_character_holds_its_seat_until_it_is_planned(default_graph):
                 {"name": "sitter", "start": {"seat": "/World/Seats/s"},
                  "goal": [{"position": [3.0, 3.0], "time": [13.0, 14.0]}]}]}
     sc = parse_scenario(data, env=env, node_labels=set(g.node_labels_all()))
-    hold = _seat_hold(sc.character("sitter"), g, 30.0)
+    hold = seat_hold(sc.character("sitter"), g, 30.0)
     assert hold == int((13.0 - np.hypot(3.0, 3.0) / 1.5 - 2.0) * 30.0)
-    assert _seat_hold(sc.character("walker"), g, 30.0) == 0
+    assert seat_hold(sc.character("walker"), g, 30.0) == 0
     res = plan_scenario(sc, g, env)
     walker = res.characters[0].track.root
-    gap = np.hypot(walker[:hold, 0], walker[:hold, 1]) - _seated_radius(g)
+    gap = np.hypot(walker[:hold, 0], walker[:hold, 1]) - seated_radius(g)
     assert gap.min() > 0.2                     # round the held seat (straight on: through it)
     rep = check_crowd(sc, {c.name: c.track for c in res.characters}, g, env)
-    assert rep["summary"]["character_overlap_pairs"] == 0 and not res.characters[1].warnings
+    assert rep.summary()["character_overlap_pairs"] == 0 and not res.characters[1].warnings
 
 
 def test_the_final_test_finds_the_first_collision_and_collides_early_uses_it(default_graph):
     """final_collision returns the first output frame whose cylinder hits a planned character
     (the compiled index stops at it), one past the motion when only the held end position is
-    hit, else None; _collides_early compares that frame with the limit."""
-    from runtime.crowd.scheduler import _collides_early
+    hit, else None; collides_early compares that frame with the limit."""
+    from runtime.crowd.scheduler import collides_early
     from runtime.crowd.spacetime import SpaceTimeIndex
-    from runtime.crowd.synthesis import SegmentResult
+    from runtime.crowd.planner import SegmentResult
     g = default_graph
     m = 90
     root = np.zeros((m, 3))
@@ -658,22 +660,22 @@ def test_the_final_test_finds_the_first_collision_and_collides_early_uses_it(def
     idx = SpaceTimeIndex(cell=1.6)
     planner = SegmentPlanner(MotionLibrary(g), collide=lambda f, xz, r: idx.overlaps(f, xz, r),
                              collide_first=lambda f, xz, r: idx.first_overlap(f, xz, r))
-    assert planner.final_collision(res, 0) is None and not _collides_early(planner, res, 60)
+    assert planner.final_collision(res) is None and not collides_early(planner, res, 60)
     idx.insert(7, np.arange(100, 400), np.tile([[0.0, 3.0]], (300, 1)), 0.3)   # stands at the end
     planner.hold = lambda r: (np.arange(r.start_frame + m, r.start_frame + m + 30), np.tile(r.root[-1:, :2], (30, 1)),
                               np.full(30, 0.3))
-    first = planner.final_collision(res, 0)
+    first = planner.final_collision(res)
     d = 3.0 - root[:, 1]
     rad = g.frame_radius[fa[0]] + planner.p.margin + 0.3
     assert first == int(np.flatnonzero(d < rad)[0]) > 40          # the first frame within reach of it
-    assert _collides_early(planner, res, first + 1) and not _collides_early(planner, res, first)
+    assert collides_early(planner, res, first + 1) and not collides_early(planner, res, first)
     # the same through the fallback (first sample of the boolean collide) and the numpy walk
     plain = SegmentPlanner(MotionLibrary(g), collide=lambda f, xz, r: idx.overlaps(f, xz, r))
-    assert plain.final_collision(res, 0) == first
+    assert plain.final_collision(res) == first
     idx.remove_owner(7)
     idx.insert(8, np.arange(100 + m, 400), np.tile([[0.0, 3.0]], (300 - m, 1)), 0.3)   # comes after it arrives
-    assert planner.final_collision(res, 0) == m                    # only the held position is hit
-    assert not _collides_early(planner, res, 10 * m)
+    assert planner.final_collision(res) == m                    # only the held position is hit
+    assert not collides_early(planner, res, 10 * m)
 
 
 def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, monkeypatch):
@@ -683,19 +685,19 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     and has no warning. Here the planner is made to fail every motion that starts at frame 0
     (as if it ran into someone right at the start)."""
     import runtime.crowd.scheduler as sched
-    import runtime.crowd.synthesis as synth
+    import runtime.crowd.planner.segment as synth
     real = synth.SegmentPlanner.run
     starts = []
 
-    def run(self, start, goal, rng, owner=-1, name="", **kw):
+    def run(self, start, goal, rng, name="", **kw):
         starts.append(start.frame)
-        res = yield from real(self, start, goal, rng, owner, name, **kw)
+        res = yield from real(self, start, goal, rng, name, **kw)
         if start.frame == 0:
             res.warning, res.collided = "forced collision", True
         return res
 
     monkeypatch.setattr(synth.SegmentPlanner, "run", run)
-    monkeypatch.setattr(sched, "_collides_early", lambda planner, res, frames: res.start_frame == 0)
+    monkeypatch.setattr(sched, "collides_early", lambda planner, res, frames: res.start_frame == 0)
     sc = parse_scenario({"name": "one", "duration": 12.0, "seed": 0, "synthesis": {"passes": 1},
                          "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
                                         "goal": [{"position": [0.0, 4.0]}]}]})
@@ -709,38 +711,38 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     assert np.abs(root[later[0], :2] - root[0, :2]).max() < 1e-9   # ... and back on its position
     assert np.hypot(*(root[c.arrivals[0], :2] - [0.0, 4.0])) < 1e-3
     rep = check_crowd(sc, {c.name: c.track}, default_graph)
-    assert rep["summary"]["passed"], rep["summary"]
-    # with a lane that clears after 5 s (_lane_clear_delay), that is the wait tried first
+    assert rep.summary()["passed"], rep.summary()
+    # with a lane that clears after 5 s (lane_clear_delay), that is the wait tried first
     starts.clear()
-    monkeypatch.setattr(sched, "_lane_clear_delay", lambda *a, **k: 5.0)
+    monkeypatch.setattr(sched, "lane_clear_delay", lambda *a, **k: 5.0)
     c = plan_scenario(sc, default_graph).characters[0]
     assert c.warnings == []
     later = [f for f in starts if f > 0]
     assert later and 4.5 * 30 <= later[0] <= 5.5 * 30
     # with no delays the forced collision stays a warning
     starts.clear()
-    monkeypatch.setattr(sched, "_lane_clear_delay", lambda *a, **k: None)
-    monkeypatch.setattr(SynthesisParams, "__init__", _with(SynthesisParams.__init__, depart_delays=()))
+    monkeypatch.setattr(sched, "lane_clear_delay", lambda *a, **k: None)
+    monkeypatch.setattr(CrowdPolicy, "__init__", _with(CrowdPolicy.__init__, depart_delays=()))
     res = plan_scenario(sc, default_graph)
     assert res.characters[0].warnings and all(f == 0 for f in starts)
 
 
 def test_a_wait_before_a_motion_keeps_its_idle_clips_turns(default_graph):
-    """The wait before a put-off departure (``_idle_for``) is bent back onto the start
+    """The wait before a put-off departure (``idle_for``) is bent back onto the start
     position only: its heading follows the idle clips' own turns exactly (the checker's raw
     increments, integrated), so the motion after it is not rotated off the raw clips the
     checker integrates from the segment's start. (Bent back onto the start heading too, 30 s
     of the "stand" idle clip turning 0.34 deg/s would leave a walk 10 degrees off: ~0.2 m/s of
     adjustment at 1.3 m/s.) Its position stays on the start and it ends there."""
     from runtime.crowd.checker import raw_increments
-    from runtime.crowd.scheduler import _idle_for, _idle_loop, still_nodes
+    from runtime.crowd.idle import idle_for, idle_loop, still_nodes
     g = default_graph
     lib = MotionLibrary(g)
     still = np.flatnonzero(still_nodes(g, (0.02, 2.0, 1 / 15)))
-    node = max(still, key=lambda n: abs(g.edge_disp[_idle_loop(g, n), 2]))   # the one that turns most
-    assert abs(g.edge_disp[_idle_loop(g, node), 2]) > 1e-3
+    node = max(still, key=lambda n: abs(g.edge_disp[idle_loop(g, n), 2]))   # the one that turns most
+    assert abs(g.edge_disp[idle_loop(g, node), 2]) > 1e-3
     cfg = Config(int(node), 1.0, 2.0, 0.5, 60)
-    tr = _idle_for(lib, g, cfg, 30.0, 30.0)
+    tr = idle_for(lib, g, cfg, 30.0, 30.0)
     assert tr.start_frame == 60 and len(tr) > 29 * 30
     inc, _ = raw_increments(g, tr)
     np.testing.assert_allclose(tr.root[0, 2] + np.concatenate([[0.0], np.cumsum(inc[:, 2])]), tr.root[:, 2], atol=1e-6)
@@ -750,23 +752,23 @@ def test_a_wait_before_a_motion_keeps_its_idle_clips_turns(default_graph):
 
 
 def test_lane_clear_delay_is_the_first_whole_second_a_straight_walk_is_clear():
-    """``_lane_clear_delay``: the wait before a straight walk at 1.3 m/s from the start to the
+    """``lane_clear_delay``: the wait before a straight walk at 1.3 m/s from the start to the
     goal misses every planned character -- here one standing on the line until frame 400 --
     found by brute force over whole seconds."""
-    from runtime.crowd.scheduler import _lane_clear_delay
+    from runtime.crowd.scheduler import lane_clear_delay
     from runtime.crowd.spacetime import SpaceTimeIndex
     index = SpaceTimeIndex(cell=1.6)
     f = np.arange(400)
     index.insert(0, f, np.broadcast_to([0.2, 5.0], (400, 2)), np.full(400, 0.4))
     cfg = Config(0, 0.0, 0.0, 0.0, 30)
     goal = Goal(np.array([0.0, 10.0]))
-    d = _lane_clear_delay(index, cfg, goal, 30.0, 1800, 0.5)
+    d = lane_clear_delay(index, cfg, goal, 30.0, 1800, 0.5)
     n = int(10.0 / 1.3 * 30) + 1
     path = np.linspace(0.0, 10.0, n)
     want = next(k for k in range(60)
                 if not any(30 + 30 * k + i < 400 and np.hypot(0.2, path[i] - 5.0) < 0.9 for i in range(n)))
     assert d == float(want) and 5 <= want <= 10
-    assert _lane_clear_delay(index, cfg, goal, 30.0, 400, 0.5) is None     # no time left to wait that long
+    assert lane_clear_delay(index, cfg, goal, 30.0, 400, 0.5) is None     # no time left to wait that long
 
 
 def _with(init, **overrides):

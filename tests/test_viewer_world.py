@@ -143,13 +143,13 @@ sent = [[int(i), [float(c) for c in xz]] for i, xz in v.commands_sent]
 v.close()
 
 # -- the character walks there: record what it plays, tick by tick -------------------------
-s = w._chars[name].slot
+s, pb = w.slot(name), w.playback
 rec = []
 extra = 0
 for _ in range(30 * 20):
     w.step(w.dt)
-    f = w.head[s] % MAX_BUFFER
-    rec.append((int(w.buf_a[s, f]), int(w.buf_b[s, f]), float(w.buf_t[s, f]), w.buf_root[s, f].copy()))
+    f = pb.head[s] % MAX_BUFFER
+    rec.append((int(pb.buf_a[s, f]), int(pb.buf_b[s, f]), float(pb.buf_t[s, f]), pb.buf_root[s, f].copy()))
     if arrived:
         extra += 1
         if extra > 5:
@@ -165,9 +165,9 @@ if sent:
                   epsilon=tuple(w.params.eps),
                   characters=[CharacterSpec(name, root0[:2].copy(), float(root0[2]), "stand", [GoalSpec(goal)])])
     rep = check_crowd(sc, {name: tr}, w.graph, env, w.fps)
-    result["check"] = {"position_error_m": rep["goals"][0]["position_error_m"],
-                       "within_eps": rep["characters"][name]["within_eps"],
-                       "obstacle_overlaps": len(rep["obstacle_overlaps"])}
+    result["check"] = {"position_error_m": rep.goals[0]["position_error_m"],
+                       "within_eps": rep.characters[name]["within_eps"],
+                       "obstacle_overlaps": len(rep.obstacle_overlaps)}
 print(json.dumps(result))
 """
 

@@ -14,8 +14,7 @@ def _run(w, seconds):
 
 
 def _root_at(w, name, frame):
-    c = w._chars[name]
-    return w.buf_root[c.slot, frame % MAX_BUFFER]
+    return w.playback.root_at(w.slot(name), frame)
 
 
 @pytest.fixture
@@ -64,12 +63,12 @@ def test_sit_and_pick_up_use_markers(default_graph, env):
     sat = next(e for e in ev if e.kind == "sat")
     assert np.allclose(sat.data["position"], (-3.0, 5.0), atol=1e-6)
     g = default_graph
-    c = w._chars["s"]
+    slot = w.slot("s")
     f = sat.data["frame"] % MAX_BUFFER
-    pose = g.frame_rotations[w.buf_b[c.slot, f]]
+    pose = g.frame_rotations[w.playback.buf_b[slot, f]]
     sit_nodes = g.nodes_with_label("sit")
     assert any(np.allclose(np.abs(np.sum(pose * g.node_rotations[n], -1)), 1, atol=1e-4) for n in sit_nodes)
-    assert w._chars["p"].carrying == "/World/Boxes/b1"
+    assert w.crowd.chars["p"].carrying == "/World/Boxes/b1"
 
 
 def test_planning_is_time_sliced_and_characters_never_freeze(default_graph):
@@ -82,7 +81,7 @@ def test_planning_is_time_sliced_and_characters_never_freeze(default_graph):
         w.tick()
         planning_ticks += w.state("a") is CharacterState.PLANNING
         roots.append(w.root_states()[0].copy())
-        assert w.tail[w._chars["a"].slot] - w.head[w._chars["a"].slot] >= 1   # buffered future
+        assert w.playback.tail[w.slot("a")] - w.playback.head[w.slot("a")] >= 1   # buffered future
     assert planning_ticks >= 5                 # the work was spread over several ticks
     poses = [w.poses(alpha=1.0)]
     w.tick()
@@ -91,7 +90,7 @@ def test_planning_is_time_sliced_and_characters_never_freeze(default_graph):
 
 
 def test_a_failing_plan_never_stops_the_loop(default_graph, monkeypatch):
-    import runtime.world as W
+    import runtime.world.crowd as W
 
     def boom(self, *a, **k):
         raise RuntimeError("planner exploded")
@@ -164,12 +163,12 @@ def test_embed_game_sample_runs_headless(default_graph, monkeypatch):
 def _record(w, name, ticks, until=None):
     """Tick ``ticks`` times (or until ``until()``), recording what ``name`` plays as a Track."""
     from runtime.crowd.tracks import Track
-    s = w._chars[name].slot
+    s, pb = w.slot(name), w.playback
     rows = []
     for _ in range(ticks):
         w.tick()
-        f = w.head[s] % MAX_BUFFER
-        rows.append((w.buf_a[s, f], w.buf_b[s, f], w.buf_t[s, f], w.buf_root[s, f].copy()))
+        f = pb.head[s] % MAX_BUFFER
+        rows.append((pb.buf_a[s, f], pb.buf_b[s, f], pb.buf_t[s, f], pb.buf_root[s, f].copy()))
         if until is not None and until():
             break
     return Track(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
@@ -234,7 +233,7 @@ def test_a_goal_where_someone_stands_is_not_walked_into(default_graph):
     g = default_graph
     for _ in range(30 * 8):
         w.tick()
-        s, a, b, t, root = w._gather(0)
+        s, a, b, t, root = w.playback.gather(0)
         xz.append(root[:, :2].copy())
         rad.append(np.maximum(g.frame_radius[a], g.frame_radius[b]))
     assert any("a" == e.character and "plan not used" in e.data["message"] for e in warnings), \
@@ -247,12 +246,15 @@ def test_planning_stops_before_a_step_that_does_not_fit(default_graph, monkeypat
     """Budget logic on a fake clock: every planner step advances it by a fixed cost. A step
     starts only when its predicted cost fits in what is left of the budget; the first step of a
     tick always runs (progress), so a step longer than the budget runs alone."""
-    import runtime.world as W
+    import runtime.world.crowd as W
+    import runtime.world.planning as P
+    import runtime.world.world as WW
     clock = [0.0]
-    monkeypatch.setattr(W.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(P.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(WW.time, "perf_counter", lambda: clock[0])
     costs = []
 
-    def fake_run(self, start, goal, rng, owner=-1, name=""):
+    def fake_run(self, start, goal, rng, name=""):
         for c in costs:
             clock[0] += c
             yield
@@ -295,11 +297,11 @@ def test_rendered_joint_positions_follow_the_exact_poses(default_graph):
         if k == 60:
             w.remove("b")
         for alpha in (0.0, 0.5, 1.0):
-            w.accumulator = alpha * w.dt
+            w.clock.accumulator = alpha * w.dt
             jp = w.joint_positions()
             assert jp.shape == (len(w.names), default_graph.skeleton.num_joints, 3)
             assert np.abs(jp - w.poses(alpha)).max() < 0.02, (k, alpha)
-        w.accumulator = 0.0
+        w.clock.accumulator = 0.0
 
 
 def test_a_second_character_with_the_same_task_reuses_the_first_ones_motion(default_graph):
@@ -312,7 +314,7 @@ def test_a_second_character_with_the_same_task_reuses_the_first_ones_motion(defa
     w.go_to("b", (5.0, 6.0), heading=math.radians(30))
     _run(w, 14)
     assert sorted(e.character for e in got) == ["a", "b"]
-    assert w._motion_cache.hits == 1
+    assert w.crowd.motion_cache.hits == 1
     for e in got:
         r = _root_at(w, e.character, e.data["frame"])
         gx = 1.0 if e.character == "a" else 5.0

@@ -57,66 +57,62 @@ def load_sample(sample, log=print, progress=True):
 
 def bake_flocks(sc, env, fps, num_frames):
     """Walk the scenario's flocks for the whole duration and check them independently
-    (positions only: centroids inside the region, no step above the recording's + 10%)."""
+    (positions only: centroids inside the region, no step above the recording's + 10%).
+    Flocks of one DDG share one FlockSystem, as in a World."""
     import numpy as np
 
-    from runtime.flock import WalkChecker
-    from runtime.world import World
-    w = World.__new__(World)            # only the flock part of a world: no library needed
-    w.env, w.flocks, w.dt = env, [], 1.0 / fps
-    w.rng = np.random.default_rng(sc.seed)
-    World.add_scenario_flocks(w, sc)
-    arrays, checks = {}, []
-    for spec in sc.flocks:
-        fs = next(f for f in w.flocks if f.ddg is spec.loaded)
-        checks.append((spec, fs))
-    recs = {id(fs): ([fs.positions().copy()], [fs.orientations().copy()]) for _, fs in checks}
-    chk = {}
-    for spec, fs in checks:
-        region = World._flock_region(w, spec)
-        chk[id(fs)] = WalkChecker(spec.loaded.max_step, spec.loaded.fps, [region] * fs.n_flocks, tolerance=0.1)
-        chk[id(fs)].update(fs.positions(), w.dt)
+    from runtime.flock import FlockSystem, WalkChecker
+    from runtime.world.scenario import scenario_flock_starts
+    dt = 1.0 / fps
+    systems, regions, rows = {}, {}, []
+    for spec, ddg, pos, headings, regs in scenario_flock_starts(sc, env):
+        fs = systems.get(id(ddg))
+        if fs is None:
+            fs = systems[id(ddg)] = FlockSystem(ddg, seed=spec.seed)
+            regions[id(ddg)] = []
+        rows.append((spec, fs, fs.add_flocks(pos, headings, regs)))
+        regions[id(ddg)] += regs
+    walks = [(fs, WalkChecker(fs.ddg.max_step, fs.ddg.fps, regions[k], tolerance=0.1),
+              [fs.positions().copy()], [fs.orientations().copy()]) for k, fs in systems.items()]
+    for fs, chk, _, _ in walks:
+        chk.update(fs.positions(), dt)
     for _ in range(num_frames - 1):
-        for _, fs in checks:
-            fs.step(w.dt)
-            recs[id(fs)][0].append(fs.positions().copy())
-            recs[id(fs)][1].append(fs.orientations().copy())
-            chk[id(fs)].update(fs.positions(), w.dt)
-    outside = worst = 0
-    n_fl = agents = 0
-    for spec, fs in checks:
-        pos = np.stack(recs[id(fs)][0])
-        ori = np.stack(recs[id(fs)][1])
-        for f in range(fs.n_flocks):
-            arrays[f"{spec.name}_{f:02d}"] = (pos[:, f], ori[:, f])
-        r = chk[id(fs)].summary()
-        outside += r["frames_outside"]
-        worst = max(worst, r["worst_step_ratio"])
-        n_fl += fs.n_flocks
-        agents = fs.n_agents
-    return {"flocks": n_fl, "agents": agents, "frames_outside": int(outside), "worst_step_ratio": float(worst),
+        for fs, chk, pos, ori in walks:
+            fs.step(dt)
+            pos.append(fs.positions().copy())
+            ori.append(fs.orientations().copy())
+            chk.update(fs.positions(), dt)
+    recorded = {id(fs): (np.stack(pos), np.stack(ori)) for fs, _, pos, ori in walks}
+    arrays = {}
+    for spec, fs, r in rows:
+        pos, ori = recorded[id(fs)]
+        for k, f in enumerate(r):
+            arrays[f"{spec.name}_{k:02d}"] = (pos[:, f], ori[:, f])
+    sums = [chk.summary() for _, chk, _, _ in walks]
+    outside = sum(x["frames_outside"] for x in sums)
+    worst = max((x["worst_step_ratio"] for x in sums), default=0.0)
+    return {"flocks": sum(fs.n_flocks for fs, _, _, _ in walks), "agents": walks[-1][0].n_agents if walks else 0,
+            "frames_outside": int(outside), "worst_step_ratio": float(worst),
             "passed": bool(outside == 0 and worst <= 1.1), "_arrays": arrays}
 
 
-def bake_tilings(sc, graph, env, fps, num_frames, log=None):
+def bake_tilings(sc, graph, env, fps, num_frames):
     """Run the scenario's tiled interaction zones for the whole bake (the same zones a World
     steps per tick) and check each independently (runtime.tiling.check). Returns
     (zones, report): each zone's ``tracks()`` index its own patch library's pose tables."""
-    from runtime.world import World
-    w = World.__new__(World)            # only the tiling part of a world
-    w.env, w.graph, w.tilings, w._zone_batches, w.dt, w.fps, w.frame = env, graph, [], {}, 1.0 / fps, fps, 0
-    World.add_scenario_tiling(w, sc)
+    from runtime.world.scenario import scenario_tiling_zones
+    zones = scenario_tiling_zones(sc, graph, env, 0.0)
     for f in range(1, num_frames):
-        for z in w.tilings:
+        for z in zones:
             z.step(f / fps)
     report = {"zones": [], "passed": True}
-    for z in w.tilings:
+    for z in zones:
         s = z.check().summary()
         ok = s["danglings"] == 0 and s["interpenetrations"] == 0 and s["frames_over_limits"] == 0 \
             and s["obstacle_hits"] == 0
         report["zones"].append({"name": z.name, "characters": len(z), "passed": ok, **s})
         report["passed"] = report["passed"] and ok
-    return w.tilings, report
+    return zones, report
 
 
 def run(args) -> int:
@@ -176,11 +172,7 @@ def run(args) -> int:
     save_crowd_stage(stage, out)
     t_write = time.perf_counter() - t0 - t_plan
     # the checker reads the baked stage back, not the planner's objects
-    report = check_crowd(sc, read_tracks(out), graph, env, result.fps) if sc.characters else \
-        {"summary": {"passed": True, "characters": 0, "goals": 0, "max_position_error_mm": 0.0,
-                     "max_heading_error_deg": 0.0, "goals_in_window": 0, "poses_ok": 0, "characters_within_eps": 0,
-                     "character_overlap_pairs": 0, "obstacle_overlap_characters": 0, "max_adjust_m_s": 0.0,
-                     "max_adjust_deg_s": 0.0, "max_adjust_s_s": 0.0}}
+    report = check_crowd(sc, read_tracks(out) if sc.characters else {}, graph, env, result.fps).to_dict()
     if tiling_report:
         report["tiling"] = tiling_report
         report["summary"]["passed"] = report["summary"]["passed"] and tiling_report["passed"]

@@ -1,4 +1,5 @@
-"""Independent checker for goal-directed crowds (issue 4, point 8).
+"""Independent checker for goal-directed crowds (Sung, Kovar and Gleicher 2005: exact
+constraints, per-frame adjustment within eps, no collisions).
 
 It reads what was baked — per character the root path and the library frames shown on every
 frame — plus the scenario, the library's own tables and the environment. It does not use the
@@ -9,7 +10,7 @@ planner's numbers (costs, splice points, arrival frames, displacement values):
   error, arrival time against its window (relative windows resolved from the *detected*
   arrival of the other character), and whether the pose shown is a library node carrying the
   goal's pose label.
-* **Per-frame adjustment** (paper 000, section 3.3). From the frames shown, the checker
+* **Per-frame adjustment** (section 3.3). From the frames shown, the checker
   rebuilds the raw motion of the clips (their own root path) and places it rigidly at the
   segment's start and at its end. A spliced motion is the start-anchored raw motion plus a
   slow drift up to some frame, then the end-anchored raw motion plus a slow drift; the checker
@@ -24,9 +25,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..check import CheckReport
 from ..motion import quat
+from ..motion.planar import compose, relative, wrap_angle
 
-__all__ = ["check_crowd", "adjustment_rates", "summarize", "overlapping_pairs", "obstacle_overlaps"]
+__all__ = ["CrowdReport", "check_crowd", "adjustment_rates", "summarize", "overlapping_pairs", "obstacle_overlaps"]
 
 
 def _edge_of(graph, frames):
@@ -58,19 +61,6 @@ def _local_cfg(graph, e, phi):
     return np.stack([x, z, h], axis=-1)
 
 
-def _compose(c, d):
-    ch, sh = np.cos(c[..., 2]), np.sin(c[..., 2])
-    return np.stack([c[..., 0] + ch * d[..., 0] + sh * d[..., 1], c[..., 1] - sh * d[..., 0] + ch * d[..., 1],
-                     c[..., 2] + d[..., 2]], axis=-1)
-
-
-def _relative(c0, c1):
-    """d such that c0 o d = c1."""
-    dx, dz = c1[..., 0] - c0[..., 0], c1[..., 1] - c0[..., 1]
-    ch, sh = np.cos(c0[..., 2]), np.sin(c0[..., 2])
-    return np.stack([ch * dx - sh * dz, sh * dx + ch * dz, c1[..., 2] - c0[..., 2]], axis=-1)
-
-
 def raw_increments(graph, track):
     """Raw root motion between consecutive frames (in the earlier frame's frame) and the
     source frames advanced, rebuilt from the library frames shown."""
@@ -78,10 +68,10 @@ def raw_increments(graph, track):
     c = _local_cfg(graph, e, phi)
     e0, e1 = e[:-1], e[1:]
     same = (e0 == e1) & (phi[1:] >= phi[:-1])
-    inc = _relative(c[:-1], c[1:])
+    inc = relative(c[:-1], c[1:])
     # crossing into the next edge: to the end of the old edge, then from the new edge's hub
     end_local = _local_cfg(graph, e0, (graph.edge_start[e0 + 1] - graph.edge_start[e0] - 1).astype(np.float64))
-    cross = _compose(_relative(c[:-1], end_local), c[1:])
+    cross = compose(relative(c[:-1], end_local), c[1:])
     inc = np.where(same[:, None], inc, cross)
     adv = np.where(same, phi[1:] - phi[:-1],
                    (graph.edge_start[e0 + 1] - graph.edge_start[e0] - 1) - phi[:-1] + phi[1:])
@@ -99,7 +89,7 @@ def adjustment_rates(graph, track, k0, k1, fps):
     fwd = np.empty((n, 3))
     fwd[0] = baked[0]
     for k in range(n - 1):     # integration along one character's frames (checker, not per tick)
-        fwd[k + 1] = _compose(fwd[k], inc[k])
+        fwd[k + 1] = compose(fwd[k], inc[k])
     bwd = np.empty((n, 3))
     bwd[-1] = baked[-1]
     for k in range(n - 2, -1, -1):
@@ -140,8 +130,37 @@ def _pose_is_node(graph, fa, fb, t, label, tol_deg=0.5):
     return bool(np.degrees(ang.min()) <= tol_deg)
 
 
-def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=None) -> dict:
-    """Check baked tracks (name -> Track) against a scenario. Returns a report dict."""
+class CrowdReport(CheckReport):
+    """What :func:`check_crowd` found.
+
+    Attributes:
+        goals: one row per goal (frame, time, window, errors, in_window, pose_ok).
+        characters: per character its worst per-frame adjustment and ``within_eps``.
+        character_overlaps: pairs of characters whose cylinders overlap, with frame counts.
+        obstacle_overlaps: characters inside obstacles, with frame counts.
+    """
+
+    kind = "crowd"
+
+    def __init__(self, goals, characters, character_overlaps, obstacle_overlaps, figures):
+        self.goals, self.characters = goals, characters
+        self.character_overlaps, self.obstacle_overlaps = character_overlaps, obstacle_overlaps
+        self._figures = figures
+
+    @property
+    def passed(self) -> bool:
+        return self._figures["passed"]
+
+    def figures(self) -> dict:
+        return {k: v for k, v in self._figures.items() if k != "passed"}
+
+    def details(self) -> dict:
+        return {"goals": self.goals, "characters": self.characters, "character_overlaps": self.character_overlaps,
+                "obstacle_overlaps": self.obstacle_overlaps}
+
+
+def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=None) -> CrowdReport:
+    """Check baked tracks (name -> Track) against a scenario."""
     eps = tuple(eps or scenario.epsilon)
     names = [c.name for c in scenario.characters]
     goal_rows = []
@@ -154,7 +173,7 @@ def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=
             d = np.hypot(tr.root[prev:, 0] - g.position[0], tr.root[prev:, 1] - g.position[1])
             score = d.copy()
             if g.heading is not None:
-                score = score + 0.01 * np.degrees(np.abs((tr.root[prev:, 2] - g.heading + np.pi) % (2 * np.pi) - np.pi))
+                score = score + 0.01 * np.degrees(np.abs(wrap_angle(tr.root[prev:, 2] - g.heading)))
             # the first frame within 0.1 mm of the best (idling later can come back as close);
             # with a pose constraint, the first such frame that shows the pose (a seated pelvis
             # can pass the seat point a frame before the sit pose is reached)
@@ -174,7 +193,7 @@ def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=
             pos_err = float(np.hypot(tr.root[k, 0] - g.position[0], tr.root[k, 1] - g.position[1]))
             head_err = None
             if g.heading is not None:
-                head_err = float(np.degrees(abs((tr.root[k, 2] - g.heading + np.pi) % (2 * np.pi) - np.pi)))
+                head_err = float(np.degrees(abs(wrap_angle(tr.root[k, 2] - g.heading))))
             t = (tr.start_frame + k) / fps
             window = g.time
             if g.after is not None:
@@ -199,16 +218,18 @@ def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=
         ok = worst[0] <= eps[0] * 1.001 and worst[1] <= eps[1] * 1.001 and worst[2] <= eps[2] * 1.001
         per_char[c.name] = {"adjust_m_s": worst[0], "adjust_deg_s": worst[1], "adjust_s_s": worst[2], "within_eps": bool(ok)}
     # collisions between characters, every frame
+    if not names:
+        return CrowdReport(goal_rows, per_char, [], [], summarize(goal_rows, per_char, {}, {}))
     F = min(len(tracks[n]) for n in names)
     R = np.stack([np.maximum(graph.frame_radius[tracks[n].frames_a[:F]], graph.frame_radius[tracks[n].frames_b[:F]])
                   for n in names], axis=1).astype(np.float64)     # (F, C)
     XZ = np.stack([tracks[n].root[:F, :2] for n in names], axis=1)  # (F, C, 2)
     pair_hits = {(names[i], names[j]): k for (i, j), k in overlapping_pairs(XZ, R).items()}
     obstacle_hits = {names[c]: k for c, k in obstacle_overlaps(XZ, R, env).items()}
-    return {"goals": goal_rows, "characters": per_char,
-            "character_overlaps": [{"a": a, "b": b, "frames": n} for (a, b), n in sorted(pair_hits.items())],
-            "obstacle_overlaps": [{"character": k, "frames": v} for k, v in sorted(obstacle_hits.items())],
-            "summary": summarize(goal_rows, per_char, pair_hits, obstacle_hits)}
+    return CrowdReport(goal_rows, per_char,
+                       [{"a": a, "b": b, "frames": n} for (a, b), n in sorted(pair_hits.items())],
+                       [{"character": k, "frames": v} for k, v in sorted(obstacle_hits.items())],
+                       summarize(goal_rows, per_char, pair_hits, obstacle_hits))
 
 
 def overlapping_pairs(XZ: np.ndarray, R: np.ndarray, valid: np.ndarray | None = None) -> dict:
@@ -244,6 +265,9 @@ def obstacle_overlaps(XZ: np.ndarray, R: np.ndarray, env, valid: np.ndarray | No
 
 
 def summarize(goal_rows, per_char, pair_hits, obstacle_hits) -> dict:
+    """The summary figures of a crowd check, with ``passed``: positions within 1 mm, headings
+    within 0.1 deg, every arrival in its window with its pose, at least 99% of the characters
+    within eps, no overlapping pair, nobody inside an obstacle."""
     pe = [g["position_error_m"] for g in goal_rows]
     he = [g["heading_error_deg"] for g in goal_rows if g["heading_error_deg"] is not None]
     n = len(per_char)

@@ -35,7 +35,10 @@ try:  # pragma: no cover - depends on the environment
 except Exception:
     _nb = None
 
-__all__ = ["SpaceTimeIndex"]
+__all__ = ["SpaceTimeIndex", "AVAILABLE", "ENABLED"]
+
+AVAILABLE = _nb is not None      # numba is importable
+ENABLED = AVAILABLE              # queries use the compiled kernels (set False to run the numpy walk)
 
 _BITS = 21
 _OFF = 1 << (_BITS - 1)
@@ -263,7 +266,7 @@ class SpaceTimeIndex:
         out = np.zeros(len(counts), dtype=bool)
         if len(frames) == 0 or self._n == 0:
             return out
-        if _nb is None:
+        if not ENABLED:
             hit = self.overlaps(frames, xz, radius, margin, ignore_owner)
             nz = counts > 0
             out[nz] = np.logical_or.reduceat(hit, (np.cumsum(counts) - counts)[nz])
@@ -307,7 +310,7 @@ class SpaceTimeIndex:
     def _hits(self, frames, xz, radius, margin, ignore_owner, first_only=False, compiled=None):
         """(query sample indices, stored owners) of the overlapping (query, stored) pairs
         (``first_only``: at least the first, when there is one). ``compiled`` None: the numba
-        kernel when numba is installed."""
+        kernel when :data:`ENABLED`."""
         frames = np.asarray(frames, dtype=np.int64)
         xz = np.asarray(xz, dtype=np.float64)
         radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape)
@@ -315,7 +318,7 @@ class SpaceTimeIndex:
         if n == 0 or self._n == 0:
             return np.zeros(0, dtype=np.int64), np.zeros(0)
         self._check_cell(radius, margin)
-        if (_nb is not None) if compiled is None else compiled:
+        if ENABLED if compiled is None else compiled:
             shift = np.uint64(64 - (len(self._head).bit_length() - 1))
             return _hits_compiled(frames, np.ascontiguousarray(xz), np.ascontiguousarray(radius), float(margin),
                                   -1 if ignore_owner is None else int(ignore_owner), bool(first_only), self.cell,

@@ -24,7 +24,9 @@ except Exception:
     _nb = None
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "pair_costs", "lookahead_errors", "edge_samples"]
+__all__ = ["AVAILABLE", "ENABLED", "pair_costs", "lookahead_errors", "edge_samples"]
+
+ENABLED = AVAILABLE     # new planners use the kernels (set False to run the numpy paths)
 
 if AVAILABLE:
     @_nb.njit(cache=True, boundscheck=False, nogil=True)

@@ -31,6 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...motion.planar import wrap_angle
+from .types import Config, SegmentResult
+
 __all__ = ["MotionCache", "task_key", "QUANTUM", "PER_TASK"]
 
 QUANTUM = 1e-6
@@ -41,21 +44,17 @@ def _q(v: float) -> int:
     return int(round(float(v) / QUANTUM))
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def task_key(start, goal, fps: float):
-    """The task of a segment from ``start`` (a :class:`~runtime.crowd.synthesis.Config`) to
-    ``goal`` (a :class:`~runtime.crowd.synthesis.Goal`) in the start's frame, rounded to
+    """The task of a segment from ``start`` (a :class:`~.types.Config`) to
+    ``goal`` (a :class:`~.types.Goal`) in the start's frame, rounded to
     ``QUANTUM``: (start node, goal x, goal z, goal heading or None, pose nodes or None,
     window or None)."""
     h0 = float(start.heading)
     c, s = math.cos(h0), math.sin(h0)
     dx = float(goal.position[0]) - float(start.x)
     dz = float(goal.position[1]) - float(start.z)
-    lx, lz = c * dx - s * dz, s * dx + c * dz           # Ry(h0)^-1 (dx, dz), see synthesis.compose
-    hk = None if goal.heading is None else _q(_wrap(float(goal.heading) - h0))
+    lx, lz = c * dx - s * dz, s * dx + c * dz           # Ry(h0)^-1 (dx, dz), see planar.compose
+    hk = None if goal.heading is None else _q(wrap_angle(float(goal.heading) - h0))
     nodes = None if goal.nodes is None else tuple(sorted(int(n) for n in np.asarray(goal.nodes).ravel()))
     t0 = start.frame / fps
     wk = None if goal.window is None else (_q(goal.window[0] - t0), _q(goal.window[1] - t0))
@@ -87,7 +86,7 @@ class MotionCache:
         return sum(len(v) for v in self._store.values())
 
     def store(self, key, start, res) -> None:
-        """Keep ``res`` (a clean :class:`~runtime.crowd.synthesis.SegmentResult` from ``start``)
+        """Keep ``res`` (a clean :class:`~.types.SegmentResult` from ``start``)
         for ``key``, first in its list; the oldest beyond ``per_task`` is dropped."""
         h0 = float(start.heading)
         c, s = math.cos(h0), math.sin(h0)
@@ -105,7 +104,6 @@ class MotionCache:
     def candidates(self, key, start, goal):
         """Each stored motion for ``key`` placed at ``start`` and corrected onto ``goal``:
         yields (list position, SegmentResult)."""
-        from .synthesis import Config, SegmentResult
         h0 = float(start.heading)
         c, s = math.cos(h0), math.sin(h0)
         for k, it in enumerate(self._store.get(key, ())):
@@ -119,7 +117,7 @@ class MotionCache:
             root[:, 0] += ramp * (float(goal.position[0]) - root[-1, 0])
             root[:, 1] += ramp * (float(goal.position[1]) - root[-1, 1])
             if goal.heading is not None:
-                root[:, 2] += ramp * _wrap(float(goal.heading) - root[-1, 2])
+                root[:, 2] += ramp * wrap_angle(float(goal.heading) - root[-1, 2])
             end = Config(it.end_node, float(root[-1, 0]), float(root[-1, 1]), float(root[-1, 2]),
                          int(start.frame) + m - 1)
             yield k, SegmentResult(True, it.frames_a.copy(), it.frames_b.copy(), it.frames_t.copy(), root, int(start.frame), end,

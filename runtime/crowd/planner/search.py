@@ -1,0 +1,281 @@
+"""The randomized search (Sung, Kovar and Gleicher 2005, section 3.3).
+
+Starting from one seed pair (M_f, M_b), while no splice is within eps, every iteration makes
+n_m perturbed pairs -- one clip of one motion replaced by a parallel clip between the same two
+nodes, drawn with probability inversely proportional to how different it is -- costs them all
+at once (Eq. 1-2, :mod:`.costs`), keeps the k_m best, and splices and collision-tests the best
+new pairs below eps. On top of the paper's search:
+
+* Sweeps on the best pair: odd iterations try every alternative of one random clip; even ones
+  every combination of alternatives of two adjacent clips, keeping the combinations that bring
+  that motion's free end closest to its target (gait-cycle clips differ a lot, so a good pair
+  is rarely improved by one random swap).
+* Pairs near acceptance whose unspliced parts cut into a static obstacle leave the population
+  (``static_filter``), so the search does not converge on motions that cut a corner.
+* A splice within eps that collides with a planned character is tried at the nearest other
+  durations the window and eps_t allow (``retime_*``): the same motion a little slower or
+  faster passes the others at other moments.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...motion.planar import compose, compose1, compose_inverse, wrap_angle
+from .collision import Collider
+from .costs import pair_costs, pairs_static_clear
+from .library import MotionLibrary
+from .params import SearchParams
+from .splice import splice
+from .types import Config, SegmentResult, Step
+
+__all__ = ["RandomizedSearch", "sweep_rows", "within_eps"]
+
+
+def within_eps(res: SegmentResult, eps) -> bool:
+    """Whether a splice's per-frame adjustment is within the tolerance."""
+    return all(x <= e * (1 + 1e-9) for x, e in zip(res.rates, eps))
+
+
+class RandomizedSearch:
+    """The search on one seed pair; :meth:`steps` is the generator.
+
+    Args:
+        lib, params, collider: the motion library, the search parameters, the collision tests.
+        compiled: splice costs by the numba kernel.
+        start: the segment's start configuration.
+        goal_cfg: (3,) the goal's x, z, heading; goal_node: its node.
+        F0, B0: the seeds (edges in walking order).
+        window_rel: the arrival window relative to the start (s), or None.
+        rng: the random stream.
+        max_iter: iterations at most.
+
+    Attributes (after :meth:`steps` finished):
+        iterations: spent.
+        best: (cost, F row, nf, B row, nb, i, j) of the cheapest pair seen.
+        collision_at: (xz, direction) of the first collision of a splice within eps, or None.
+    """
+
+    def __init__(self, lib: MotionLibrary, params: SearchParams, collider: Collider, compiled: bool, start: Config,
+                 goal_cfg: np.ndarray, goal_node: int, F0, B0, window_rel, rng, max_iter: int):
+        self.lib, self.p, self.collider, self.compiled = lib, params, collider, compiled
+        self.start, self.goal_cfg, self.goal_node = start, goal_cfg, goal_node
+        self.window_rel, self.rng, self.max_iter = window_rel, rng, max_iter
+        self.F0, self.B0 = F0, B0
+        self.rejected: set = set()
+        self.collision_at = None
+        self.iterations = 0
+        self.best = None
+        self.retimes = params.retime_budget     # colliding splices that may be tried at other durations
+
+    def costs(self, F, nf, B, nb):
+        return pair_costs(self.lib, self.p, F, nf, B, nb, self.start.xzh, self.goal_cfg, int(self.start.node),
+                          self.goal_node, self.window_rel, compiled=self.compiled)
+
+    def splice(self, Frow, i, Brow, j, **kw):
+        return splice(self.lib, self.p, self.start, self.goal_cfg, self.goal_node, Frow, i, Brow, j,
+                      self.window_rel, **kw)
+
+    def accept(self, cost, Frow, i, Brow, j):
+        """Splice the pair (M_f[:i], M_b[j:]) and run the final tests: the spliced motion if it
+        is within eps and collision-free (perhaps at another duration), else None."""
+        key = (tuple(Frow[:i]), tuple(Brow[j:][Brow[j:] >= 0]))
+        if key in self.rejected:
+            return None
+        self.rejected.add(key)
+        res = self.splice(Frow, i, Brow, j)
+        if res is None or not within_eps(res, self.p.eps):
+            return None
+        hit = self.collider.final_collision(res)
+        if hit is not None and self.collider.collide is not None and self.retimes > 0:
+            self.retimes -= 1
+            r2 = self._retimed(res, Frow, i, Brow, j)
+            if r2 is not None:
+                r2.cost = float(cost)
+                return r2
+        if hit is not None:
+            if self.collision_at is None and hit < len(res.root):
+                k = hit
+                a, b = max(k - 3, 0), min(k + 3, len(res.root) - 1)
+                d = res.root[b, :2] - res.root[a, :2]
+                n = np.hypot(*d)
+                d = d / n if n > 1e-6 else np.array([np.sin(res.root[k, 2]), np.cos(res.root[k, 2])])
+                self.collision_at = (res.root[k, :2].copy(), d)
+            return None
+        res.cost = float(cost)
+        return res
+
+    def _retimed(self, res, Frow, i, Brow, j):
+        """The same splice at the nearest other durations (time resampling within eps_t and
+        the window): the first that is within eps and collision-free, or None."""
+        p = self.p
+        m0 = len(res.root) - 1
+        raw = int(sum(self.lib.nframes[e] - 1 for e in res.edges))      # source frame steps
+        lo_m = int(np.ceil(raw / (1 + p.eps[2]))) + 1
+        hi_m = int(np.floor(raw / max(1 - p.eps[2], 1e-3))) - 1
+        cands = [m for k in range(1, 64) for m in (m0 + p.retime_step * k, m0 - p.retime_step * k)
+                 if lo_m <= m <= hi_m][:p.retime_tries]
+        rs = [r for r in self.splice(Frow, i, Brow, j, frames=cands) if r is not None and within_eps(r, p.eps)] \
+            if cands else []
+        for r2 in rs:
+            if self.collider.final_collision(r2) is None:
+                return r2
+        return None
+
+    def _perturbed(self, Fp, Bp, nfp, nbp, P):
+        """n_m pairs, each a random kept pair with one clip replaced by a parallel alternative."""
+        lib, rng = self.lib, self.rng
+        Lf, Lb = Fp.shape[1], Bp.shape[1]
+        parent = rng.integers(0, len(Fp), size=P)
+        Fn = Fp[parent].copy()
+        Bn = Bp[parent].copy()
+        nfn = nfp[parent].copy()
+        nbn = nbp[parent].copy()
+        # which motion to perturb, and a clip of it that has a parallel alternative
+        fa = (Fn >= 0) & lib.has_alt[np.maximum(Fn, 0)]
+        ba = (Bn >= 0) & lib.has_alt[np.maximum(Bn, 0)]
+        use_f = rng.random(P) < 0.5
+        use_f = np.where(fa.any(1) & ~ba.any(1), True, np.where(ba.any(1) & ~fa.any(1), False, use_f))
+        col_f = np.argmax(rng.random((P, Lf)) * np.where(use_f[:, None], fa, False), axis=1)
+        col_b = np.argmax(rng.random((P, Lb)) * np.where(~use_f[:, None], ba, False), axis=1)
+        u = rng.random(P)
+        rowf = np.flatnonzero(use_f & fa.any(1))
+        if len(rowf):
+            Fn[rowf, col_f[rowf]] = lib.sample_alternatives(Fn[rowf, col_f[rowf]], u[rowf])
+        rowb = np.flatnonzero(~use_f & ba.any(1))
+        if len(rowb):
+            Bn[rowb, col_b[rowb]] = lib.sample_alternatives(Bn[rowb, col_b[rowb]], u[rowb])
+        return Fn, Bn, nfn, nbn
+
+    def steps(self):
+        """Generator: yields a :class:`~.types.Step` before each bounded piece of work; returns
+        the accepted :class:`~.types.SegmentResult` or None (see the attributes)."""
+        p, F0, B0 = self.p, self.F0, self.B0
+        eps_p = p.eps[0]
+        Lf = max(len(F0), 1) + 8
+        Lb = max(len(B0), 1) + 8
+        Fp = -np.ones((1, Lf), dtype=np.int64)
+        Bp = -np.ones((1, Lb), dtype=np.int64)
+        Fp[0, :len(F0)] = F0
+        if len(B0):
+            Bp[0, Lb - len(B0):] = B0
+        nfp = np.array([len(F0)])
+        nbp = np.array([len(B0)])
+        costp, ip, jp = self.costs(Fp, nfp, Bp, nbp)
+        self.best = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
+        if np.isfinite(costp[0]) and costp[0] <= eps_p:
+            res = self.accept(costp[0], Fp[0], ip[0], Bp[0], jp[0])
+            if res is not None:
+                self.collision_at = None
+                return res
+        P = p.n_m
+        while self.iterations < self.max_iter:
+            self.iterations += 1
+            Fn, Bn, nfn, nbn = self._perturbed(Fp, Bp, nfp, nbp, P)
+            sw = min(p.sweep, P)
+            if sw:
+                rows_new = sweep_rows(self.lib, p, Fp[0], nfp[0], Bp[0], nbp[0], self.start.xzh, self.goal_cfg,
+                                      self.rng, sw, pair=self.iterations % 2 == 0)
+                if rows_new is not None:
+                    Fs, Bs = rows_new
+                    k = len(Fs)
+                    Fn[P - k:], Bn[P - k:], nfn[P - k:], nbn[P - k:] = Fs, Bs, nfp[0], nbp[0]
+                yield Step.COSTS
+            cn, inn, jn = self.costs(Fn, nfn, Bn, nbn)
+            if p.static_filter and self.collider.static is not None:
+                # pairs near acceptance whose parts hit a static obstacle leave the population
+                near = np.flatnonzero(cn <= p.static_filter * eps_p)
+                if len(near):
+                    okn = pairs_static_clear(self.lib, self.collider.static, p.margin, Fn[near], Bn[near], inn[near],
+                                             jn[near], self.start.xzh, self.goal_cfg, slack=p.static_filter_slack)
+                    cn[near[~okn]] = np.inf
+            allc = np.concatenate([costp, cn])
+            Fa, Ba = np.concatenate([Fp, Fn]), np.concatenate([Bp, Bn])
+            nfa, nba = np.concatenate([nfp, nfn]), np.concatenate([nbp, nbn])
+            ia, ja = np.concatenate([ip, inn]), np.concatenate([jp, jn])
+            order = np.argsort(allc, kind="stable")
+            if allc[order[0]] < self.best[0]:
+                r = order[0]
+                self.best = (float(allc[r]), Fa[r].copy(), nfa[r], Ba[r].copy(), nba[r], int(ia[r]), int(ja[r]))
+            # splice and test the best new pairs below eps (a pair the final test rejects stays
+            # in the population, see docs/decisions.md)
+            K0 = len(costp)
+            for r in K0 + np.argsort(cn, kind="stable")[:p.splices_per_iteration]:
+                if not (allc[r] <= eps_p):
+                    break
+                yield Step.SPLICE
+                res = self.accept(allc[r], Fa[r], ia[r], Ba[r], ja[r])
+                if res is not None:
+                    self.collision_at = None
+                    return res
+            # keep the k_m best of old and new
+            keep = np.argsort(allc, kind="stable")[:p.k_m]
+            Fp, Bp, nfp, nbp, ip, jp = Fa[keep], Ba[keep], nfa[keep], nba[keep], ia[keep], ja[keep]
+            costp = allc[keep]
+            if self.collision_at is not None and self.iterations >= p.reseed_after and costp[0] <= eps_p:
+                # below eps but colliding for a while: better seeds are needed
+                break
+            yield Step.SEARCH
+        return None
+
+
+def sweep_rows(lib: MotionLibrary, params: SearchParams, Frow, nf, Brow, nb, start_cfg, goal_cfg, rng, k: int,
+               pair: bool):
+    """Candidate rows from exhaustive replacement at one (``pair`` False) or two adjacent clip
+    positions of one motion of the best pair. Returns (F rows, B rows) or None."""
+    Lb = len(Brow)
+    fpos = np.flatnonzero((Frow >= 0) & lib.has_alt[np.maximum(Frow, 0)])
+    bpos = np.flatnonzero((Brow >= 0) & lib.has_alt[np.maximum(Brow, 0)])
+    if len(fpos) + len(bpos) == 0:
+        return None
+    on_f = rng.random() < len(fpos) / (len(fpos) + len(bpos))
+    row = Frow if on_f else Brow
+    pos = fpos if on_f else bpos
+    c0 = int(pos[rng.integers(0, len(pos))])
+    cols = [c0]
+    if pair and (c0 + 1) in set(pos.tolist()):
+        cols.append(c0 + 1)
+    elif pair and (c0 - 1) in set(pos.tolist()):
+        cols.insert(0, c0 - 1)
+    options = [np.concatenate([[row[c]], lib.alt_idx[lib.alt_ptr[row[c]]:lib.alt_ptr[row[c] + 1]]]) for c in cols]
+    grid = np.stack(np.meshgrid(*options, indexing="ij"), axis=-1).reshape(-1, len(cols))
+    if len(cols) == 2 and len(grid) > k:
+        if len(grid) > params.sweep_pairs:
+            keep = rng.choice(len(grid) - 1, size=params.sweep_pairs - 1, replace=False) + 1
+            grid = np.concatenate([grid[:1], grid[np.sort(keep)]])
+        # score every combination by where the motion's free end lands: the clips before
+        # and after the two positions are one fixed transform each
+        a1 = params.alpha[0]
+        if on_f:
+            edges = [int(e) for e in row[:nf]]
+            pre = start_cfg.copy()
+            for e in edges[:cols[0]]:
+                pre = compose1(pre, lib.disp[e])
+            suf = np.zeros(3)
+            for e in edges[cols[1] + 1:]:
+                suf = compose1(suf, lib.disp[e])
+            mid = compose(compose(compose(pre[None], lib.disp[grid[:, 0]]), lib.disp[grid[:, 1]]), suf[None])
+            tgt = goal_cfg
+        else:
+            edges = [int(e) for e in row[Lb - nb:]]
+            c_first = cols[0] - (Lb - nb)
+            post = goal_cfg.copy()
+            for e in edges[c_first + 2:][::-1]:
+                post = compose_inverse(post, lib.disp[e])
+            pre_d = np.zeros(3)
+            for e in edges[:c_first]:
+                pre_d = compose1(pre_d, lib.disp[e])
+            mid = compose_inverse(compose_inverse(compose_inverse(np.broadcast_to(post, (len(grid), 3)),
+                                                                  lib.disp[grid[:, 1]]), lib.disp[grid[:, 0]]),
+                                  pre_d[None])
+            tgt = start_cfg
+        err = np.hypot(mid[:, 0] - tgt[0], mid[:, 1] - tgt[1]) + a1 * np.abs(wrap_angle(mid[:, 2] - tgt[2]))
+        grid = grid[np.argsort(err, kind="stable")[:k]]
+    else:
+        grid = grid[1:k + 1] if len(grid) > 1 else grid
+    n = len(grid)
+    Fs = np.repeat(Frow[None], n, 0)
+    Bs = np.repeat(Brow[None], n, 0)
+    tgt_rows = Fs if on_f else Bs
+    for q, c in enumerate(cols):
+        tgt_rows[:, c] = grid[:, q]
+    return Fs, Bs

@@ -1,0 +1,352 @@
+"""World: the runtime a game embeds -- a fixed-timestep loop of systems, commands, poses.
+
+The tick::
+
+    accumulate real time; for each whole dt (runtime.clock.FixedStep):
+        every system's tick, in order:
+            crowd:   apply queued commands; planner steps under the per-tick budget
+            flocks:  advance each flock along its DDG walk
+            tiling:  extend each tiling zone's horizon with new patch instances
+            (systems added with add_system, in the order added)
+        the clock advances one frame
+        every system's after_tick (the crowd: read heads, idle refills, arrival events)
+    render: poses interpolated between the last two ticks, all characters in one pass
+
+A *system* is any object with ``tick(world)`` (before the clock advances) and, optionally,
+``after_tick(world)`` (after it). The World also implements the viewer's scene protocol
+(:mod:`runtime.view`).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..clock import FixedStep
+from ..crowd.planner import CrowdPolicy, SearchParams
+from ..crowd.tracks import evaluate_poses
+from ..motion.fk import forward_kinematics
+from ..motion.graph import MotionGraph
+from ..pose import PoseBatch, PoseState
+from .crowd import CharacterState, CrowdSystem
+from .events import EventBus
+from .flocks import FlockHost
+from .scenario import scenario_flock_starts, scenario_tiling_zones
+from .tiling import TilingHost
+
+__all__ = ["World"]
+
+MAX_TICKS_PER_STEP = 8     # ticks one step() may run; a longer stall drops whole ticks (keeps the phase)
+
+
+class World:
+    """Characters, flocks and tiling zones on one fixed clock.
+
+    Args:
+        library: a motion graph, or the name/path of a motion-graph pack (``"default"``).
+        world: the environment (:class:`runtime.crowd.environment.Environment`, e.g. from
+            ``usd_io.world.read_world(path)``), or None for open ground.
+        roadmap: the environment's roadmap (:class:`runtime.crowd.roadmap.Roadmap`), or None.
+        dt: tick length in seconds.
+        budget_ms: planning time per tick (milliseconds).
+        seed: the random stream of the planner and of unseeded flocks.
+        params: search parameters of the online planner (default
+            :func:`runtime.world.crowd.online_params`); policy: the crowd policy.
+        capacity: character slots to start with (grows as needed).
+    """
+
+    def __init__(self, library="default", world=None, roadmap=None, dt: float = 1.0 / 30.0,
+                 budget_ms: float = 4.0, seed: int = 0, params: SearchParams | None = None,
+                 policy: CrowdPolicy | None = None, capacity: int = 64):
+        from ..library import load_library
+        if world is not None and not hasattr(world, "polygons"):
+            raise TypeError(f"world must be an Environment or None, not {type(world).__name__}: read a stage "
+                            f"with usd_io.world.read_world(path)")
+        self.graph: MotionGraph = library if isinstance(library, MotionGraph) else load_library(library)
+        self.env = world
+        self.roadmap = roadmap
+        self.clock = FixedStep(dt, MAX_TICKS_PER_STEP)
+        self.dt = self.clock.dt
+        self.fps = 1.0 / self.dt
+        self.rng = np.random.default_rng(seed)
+        self.frame = 0
+        self.bus = EventBus()
+        self.stats = {"tick_ms": 0.0, "plan_ms": 0.0, "plan_cpu_ms": 0.0, "plan_steps": 0, "characters": 0,
+                      "queue": 0, "ticks": 0, "plans_done": 0, "plans_failed": 0,
+                      "plans_shifted": 0, "plans_redone": 0, "plans_retried": 0}
+        self.crowd = CrowdSystem(self, self.graph, self.env, roadmap, budget_ms / 1000.0, self.rng, params, policy,
+                                 capacity)
+        self.params = self.crowd.params
+        self.flock_host = FlockHost(self.rng)
+        self.tiling = TilingHost()
+        self.systems: list = [self.crowd, self.flock_host, self.tiling]
+        self.selected = None
+        self._pose_batch = None          # render-side poses (joint_positions)
+        self._pose_at = None
+        self._pose_slots = None
+
+    # -- systems and the clock ---------------------------------------------------------------------------
+    def add_system(self, system) -> None:
+        """Tick ``system`` after the built-in ones: an object with ``tick(world)`` and optionally
+        ``after_tick(world)``, or a plain callable ``f(world)`` (run as its tick)."""
+        self.systems.append(system)
+
+    def emit(self, kind: str, name: str, **data) -> None:
+        """Emit an event at the current world time (listeners: :meth:`on`)."""
+        self.bus.emit(kind, name, self.frame / self.fps, **data)
+
+    def on(self, kind: str, callback) -> None:
+        """Call ``callback(event)`` for events of ``kind`` ("*" for all)."""
+        self.bus.on(kind, callback)
+
+    @property
+    def events(self) -> list:
+        return self.bus.events
+
+    def tick(self) -> None:
+        """One fixed step of every system (see the module docstring)."""
+        t0 = time.perf_counter()
+        for s in self.systems:
+            ts = time.perf_counter()
+            s.tick(self) if hasattr(s, "tick") else s(self)
+            if s is self.crowd:
+                self.stats["plan_ms"] = (time.perf_counter() - ts) * 1000
+        self.frame += 1
+        for s in self.systems:
+            after = getattr(s, "after_tick", None)
+            if after is not None:
+                after(self)
+        self.stats.update(tick_ms=(time.perf_counter() - t0) * 1000, ticks=self.stats["ticks"] + 1)
+
+    def step(self, real_dt: float) -> int:
+        """Advance by ``real_dt`` seconds of real time; returns the ticks run (at most
+        ``MAX_TICKS_PER_STEP``, so a stall never snowballs)."""
+        n = self.clock.advance(real_dt)
+        for _ in range(n):
+            self.tick()
+        return n
+
+    @property
+    def budget(self) -> float:
+        """Planning time per tick, seconds."""
+        return self.crowd.queue.budget
+
+    @budget.setter
+    def budget(self, seconds: float) -> None:
+        self.crowd.queue.budget = float(seconds)
+
+    @property
+    def time(self) -> float:
+        return self.frame / self.fps
+
+    @property
+    def alpha(self) -> float:
+        """Fraction of a tick between the last tick and the next (for render interpolation)."""
+        return self.clock.alpha
+
+    # -- characters and commands (queued, applied at the next tick) --------------------------------------------
+    @property
+    def names(self) -> list[str]:
+        """Active characters in slot order (the rows of :meth:`poses`)."""
+        return self.crowd.names
+
+    def spawn(self, name: str, position, heading: float = 0.0, pose: str = "stand") -> int:
+        """Add a character standing (or seated: pose "sit") at ``position`` (x, z), facing
+        ``heading`` (radians, 0 = +Z). Returns its slot."""
+        return self.crowd.spawn(name, position, heading, pose)
+
+    def remove(self, name: str) -> None:
+        self.crowd.remove(name)
+
+    def slot(self, name: str) -> int:
+        """The character's row in the playback buffers (:attr:`playback`)."""
+        return self.crowd.chars[name].slot
+
+    @property
+    def playback(self):
+        """Every character's buffered future (:class:`runtime.world.playback.Playback`)."""
+        return self.crowd.playback
+
+    def state(self, name: str) -> CharacterState:
+        return self.crowd.chars[name].state
+
+    def position(self, name: str) -> np.ndarray:
+        """(x, z, heading) of the character now."""
+        pb, s = self.playback, self.slot(name)
+        return pb.root_at(s, pb.head[s]).copy()
+
+    def go_to(self, name, position, heading=None, arrive=None, queue: bool = False):
+        """Walk to ``position`` (x, z), optionally facing ``heading`` (radians) and arriving in
+        the absolute time window ``arrive = (t0, t1)`` seconds. A new go_to replaces goals that
+        are still waiting for the planner unless ``queue`` is True (then it comes after them)."""
+        self.crowd.commands.append(("go_to", name, np.asarray(position, float), heading, arrive, queue))
+
+    def sit(self, name, seat):
+        """Sit down on the seat marker ``seat`` (a prim path of the world stage)."""
+        self.crowd.commands.append(("sit", name, None, None, None, seat))
+
+    def stand(self, name):
+        self.crowd.commands.append(("stand", name, None, None, None, None))
+
+    def pick_up(self, name, box):
+        """Walk to the box marker ``box`` and pick it up."""
+        self.crowd.commands.append(("pick_up", name, None, None, None, box))
+
+    def put_down(self, name, position, heading=None):
+        self.crowd.commands.append(("put_down", name, np.asarray(position, float), heading, None, None))
+
+    def meet(self, names, position, time_s):
+        """Characters arrive together at ``time_s`` around ``position``, facing its centre."""
+        import math
+        n = len(names)
+        r = 0.0 if n == 1 else max(0.55, 0.75 / (2 * math.sin(math.pi / n)))
+        for k, name in enumerate(names):
+            a = 2 * math.pi * k / n
+            p = np.asarray(position, float) + r * np.array([math.sin(a), math.cos(a)])
+            h = math.atan2(position[0] - p[0], position[1] - p[1]) if n > 1 else None
+            self.go_to(name, p, heading=h, arrive=(time_s, time_s + 0.5))
+
+    def pose_nodes(self, label: str) -> np.ndarray:
+        """Nodes of pose ``label`` where a character can wait standing still."""
+        return self.crowd.pose_nodes(label)
+
+    # -- poses -----------------------------------------------------------------------------------------------
+    def root_states(self):
+        """Current (x, z, heading) of every active character (N, 3), in slot order."""
+        return self.playback.gather(0)[4]
+
+    def poses(self, alpha: float | None = None):
+        """Joint world positions (N, J, 3) of all characters (slot order = :attr:`names`),
+        interpolated between the previous and the current tick by ``alpha`` (default: the
+        clock's fraction); exact rotations (slerp + forward kinematics, float64)."""
+        alpha = self.alpha if alpha is None else alpha
+        pb = self.playback
+        s, a, b, t, root = pb.gather(0)
+        if len(s) == 0:
+            return np.zeros((0, self.graph.skeleton.num_joints, 3))
+        pos, rot = evaluate_poses(self.graph, a, b, t, root)
+        cur = forward_kinematics(self.graph.skeleton, pos, rot)[1]
+        if alpha >= 1.0:
+            return cur
+        _, a0, b0, t0, root0 = pb.gather(-1)
+        pos0, rot0 = evaluate_poses(self.graph, a0, b0, t0, root0)
+        prev = forward_kinematics(self.graph.skeleton, pos0, rot0)[1]
+        return prev + (cur - prev) * alpha
+
+    # -- the viewer's scene protocol (runtime.view) --------------------------------------------------------------
+    @property
+    def environment(self):
+        if self.env is None:
+            from ..crowd.environment import Environment
+            self.env = Environment.open_ground()
+        return self.env
+
+    @property
+    def skeleton(self):
+        return self.graph.skeleton
+
+    def joint_positions(self):
+        """What the viewer draws: the crowd through the table evaluator of :mod:`runtime.pose`
+        (a :class:`~runtime.pose.PoseBatch` pushed once per tick, interpolated per frame;
+        float32, within a few mm of :meth:`poses`), then every tiling zone's characters."""
+        pb = self.playback
+        s = np.flatnonzero(pb.active)
+        if self._pose_batch is None:
+            self._pose_batch = PoseBatch(self.graph)
+        if self._pose_at != self.frame or not np.array_equal(s, self._pose_slots):
+            if self._pose_at != self.frame - 1 or not np.array_equal(s, self._pose_slots):
+                self._pose_batch.reset()
+                self._pose_batch.push(PoseState(*pb.gather(-1)[1:]))
+            self._pose_batch.push(PoseState(*pb.gather(0)[1:]))
+            self._pose_at, self._pose_slots = self.frame, s
+        pos = self._pose_batch.positions(self.alpha)
+        if not self.tiling.zones:
+            return pos
+        return np.concatenate([pos] + [self.tiling.zone_positions(z, self.time, self.alpha) for z in self.tiling.zones])
+
+    def hud_stats(self) -> dict:
+        out = {"tick ms": round(self.stats["tick_ms"], 2), "synthesis ms": round(self.stats["plan_ms"], 2),
+               "characters": self.stats["characters"], "queue": self.stats["queue"]}
+        if self.tiling.zones:
+            out["tiled"] = len(self.tiling)
+            out["tiling ms"] = round(self.stats.get("tiling_ms", 0.0), 2)
+        if self.flock_host.systems:
+            out["flock agents"] = self.flock_host.agent_count()
+        out["time s"] = round(self.time, 1)
+        return out
+
+    def select(self, i) -> None:
+        self.selected = i
+
+    def command_go_to(self, i: int, xz) -> None:
+        """Viewer right-click: a crowd character goes to ``xz``; a tiled character's team is
+        steered there (its zone clamps the spot inside the zone)."""
+        names = self.names
+        if i is None:
+            return
+        if 0 <= i < len(names):
+            self.go_to(names[i], np.asarray(xz, float))
+            return
+        self.tiling.steer(i - len(names), np.asarray(xz, float))
+
+    def box_positions(self):
+        """Bottom-centre (x, y, z) and heading of every box marker, carried ones in the hands."""
+        return self.crowd.box_positions()
+
+    def flock_positions(self):
+        """All flock agents: positions (M, 3) and headings (M,)."""
+        return self.flock_host.positions()
+
+    # -- flocks, tiling zones, scenarios ----------------------------------------------------------------------------
+    @property
+    def flocks(self) -> list:
+        """The :class:`~runtime.flock.FlockSystem`s (one per DDG)."""
+        return self.flock_host.systems
+
+    @property
+    def tilings(self) -> list:
+        """The :class:`~runtime.tiling.zone.TilingZone`s."""
+        return self.tiling.zones
+
+    def add_flocks(self, ddg, positions, headings=None, regions=None, seed: int | None = None):
+        """Start flocks walking ``ddg`` (a :class:`runtime.flock.DDG` or a pack path): their
+        centroids at ``positions`` (k, 3), optionally each constrained to a region. All flocks
+        of one DDG advance together in one vectorized system. Returns (system index, flock rows)."""
+        return self.flock_host.add(ddg, positions, headings, regions, seed)
+
+    def add_tiling(self, zone):
+        """Register a :class:`runtime.tiling.zone.TilingZone` (interactive motion-patch tiling of
+        its teams): stepped every tick after the flocks, drawn with the crowd."""
+        return self.tiling.add(zone)
+
+    def apply_scenario(self, sc) -> None:
+        """Spawn a scenario's characters and queue their goals as run-time commands (staged: each
+        goal is planned while the previous one plays). Seats and boxes become sit and pick_up; a
+        "stand" goal while carrying becomes put_down; relative timing (``after``) is not used
+        online. (Flocks: :meth:`add_scenario_flocks`, once their graphs are loaded.)"""
+        for c in sc.characters:
+            self.spawn(c.name, c.position, c.heading, c.pose)
+        for c in sc.characters:
+            carrying = False
+            for g in c.goals:
+                if g.kind == "seat":
+                    self.sit(c.name, g.marker)
+                elif g.kind == "box":
+                    self.pick_up(c.name, g.marker)
+                    carrying = True
+                elif carrying and g.pose in ("stand", None):
+                    self.put_down(c.name, g.position, g.heading)
+                    carrying = False
+                else:
+                    self.go_to(c.name, g.position, g.heading, g.time, queue=True)
+
+    def add_scenario_flocks(self, sc) -> None:
+        """Start the ``[[flock]]`` entries of a scenario (their DDGs resolved into
+        ``spec.loaded`` by the caller, see ``authoring.commands.bake.load_sample``)."""
+        for spec, ddg, pos, headings, regions in scenario_flock_starts(sc, self.env):
+            self.add_flocks(ddg, pos, headings, regions, seed=spec.seed)
+
+    def add_scenario_tiling(self, sc, libraries: dict | None = None) -> None:
+        """Start the ``[[tiling]]`` zones of a scenario (:func:`~.scenario.scenario_tiling_zones`)."""
+        for zone in scenario_tiling_zones(sc, self.graph, self.env, self.time, libraries):
+            self.add_tiling(zone)
