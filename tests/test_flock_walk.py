@@ -86,6 +86,11 @@ def test_checker_flags_jumps_and_escapes():
     ch.update(p, 1 / 30)
     r = ch.summary()
     assert not r["ok"] and r["step_violations"] >= 2 and r["frames_outside"] == 1
+    rep = ch.report()
+    assert rep.kind == "flock" and not rep.passed and rep.summary() == r
+    assert r["kind"] == "flock" and r["passed"] is False
+    assert rep.to_dict()["frames_outside"] == [1]
+    assert str(rep).startswith("flock check: FAILED | ticks 4 | flocks 1 | frames outside 1")
 
 
 def test_correspondence_keeps_identities_through_transitions(ddg):

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..check import CheckReport
+from ..check import CheckReport, format_summary
 
 __all__ = ["WalkChecker", "WalkReport"]
 
@@ -61,7 +61,11 @@ class WalkReport(CheckReport):
         }
 
     def details(self) -> dict:
+        """Per flock: ticks outside its region."""
         return {"frames_outside": [int(n) for n in self.frames_outside]}
+
+    def __str__(self) -> str:
+        return format_summary(self.kind, self.summary(), [k for k in self.figures() if k != "ok"])
 
 
 class WalkChecker:
