@@ -1,4 +1,5 @@
-"""Boids flock recorder: the input of data-driven groups (paper 004, section 2; Reynolds 1987).
+"""Boids flock recorder: the input of data-driven groups (Lai, Chenney and Fan 2005, section 2;
+Reynolds 1987).
 
 Every agent steers by separation, alignment and cohesion with its neighbours, relaxes towards a
 cruising speed, and adds a smooth random *wander* (an Ornstein-Uhlenbeck steering force per

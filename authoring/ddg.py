@@ -1,4 +1,4 @@
-"""Build a data-driven group graph from a recorded flock (paper 004, section 4.3).
+"""Build a data-driven group graph from a recorded flock (Lai, Chenney and Fan 2005, section 4.3).
 
 1. *Candidate configurations* every ``candidate_stride`` frames of the recording.
 2. *Difference matrix* ``D[k, l] = E(c_k, c_l)`` (:mod:`runtime.flock.metric`, velocity weight
@@ -39,15 +39,17 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
+from runtime.flock.coords import invert_transform, yaw_rotate
 from runtime.flock.ddg import DDG, hermite_weights
-from runtime.flock.metric import (bound_features, invert_transform, lower_bound_matrix, match_batch,
-                                  yaw_rotate)
+from runtime.flock.metric import bound_features, lower_bound_matrix, match_batch
 
-__all__ = ["BuildParams", "BuildStats", "Transition", "find_transitions", "build_ddg", "blend_offsets"]
+__all__ = ["DDGBuildParams", "BuildStats", "Transition", "find_transitions", "build_ddg", "blend_offsets"]
 
 
 @dataclass(frozen=True)
-class BuildParams:
+class DDGBuildParams:
+    """Parameters of :func:`build_ddg` (frames, seconds, metres)."""
+
     candidate_stride: int = 15             # frames between candidate configurations (2 Hz at 30 fps)
     min_gap_seconds: float = 10.0          # a transition jumps at least this far in the recording
                                            # (no short loops that replay a few seconds forever)
@@ -70,6 +72,9 @@ class BuildParams:
             raise ValueError("min_gap_seconds must be at least min_segment_seconds")
         if (self.max_rms is not None and self.max_rms <= 0) or self.transitions_per_minute <= 0:
             raise ValueError("max_rms and transitions_per_minute must be positive")
+
+
+BuildParams = DDGBuildParams    # the former name, for callers not yet renamed
 
 
 @dataclass
@@ -121,7 +126,7 @@ class BuildStats:
         return d
 
 
-def default_max_rms(dim: int, params: BuildParams) -> float:
+def default_max_rms(dim: int, params: DDGBuildParams) -> float:
     if params.max_rms is not None:
         return float(params.max_rms)
     return 0.6 if dim == 2 else 0.9
@@ -143,7 +148,8 @@ def _null_progress(desc, total):
 
 
 def blend_offsets(a_pos, a_vel, b_pos, b_vel, yaw, trans, perm, fps):
-    """Hermite blend endpoints for a jump from configuration A into B (paper 4.3 "blended").
+    """Hermite blend endpoints for a jump from configuration A into B (Lai, Chenney and Fan
+    2005, section 4.3, "blended").
 
     ``(yaw, trans)`` is ``X_{A<-B}``, ``perm`` is ``M_{B<-A}``. Returns ``d0, d1`` (N, D) indexed by
     B's slots, in B's coordinates: the position gap and the per-frame velocity gap.
@@ -190,7 +196,7 @@ def _worker_batch(kl):
     return match_batch(CP[k], CV[k], CP[l], CV[l], _WORKER["w"])[0]
 
 
-def find_transitions(positions, velocities, fps, params: BuildParams, progress=None,
+def find_transitions(positions, velocities, fps, params: DDGBuildParams, progress=None,
                      max_step: float | None = None):
     """Candidate frames, difference matrix (pruned or brute force), chosen transitions.
 
@@ -425,7 +431,7 @@ def build_graph(positions, fps, transitions: list, max_step: float, dim: int, me
     return g, {"nodes_before_trim": V, "edges_before_trim": len(src)}
 
 
-def build_ddg(recording, params: BuildParams = BuildParams(), progress=None):
+def build_ddg(recording, params: DDGBuildParams = DDGBuildParams(), progress=None):
     """Record -> DDG. ``recording`` is an :class:`authoring.boids.Recording` (or anything with
     ``positions``, ``velocities``, ``fps``, ``dim``, ``max_step``). Returns ``(ddg, stats)``."""
     t0 = time.perf_counter()

@@ -25,13 +25,13 @@ def ensure_ddg(recipe: dict, log=print, progress=True) -> Path:
     from tqdm import tqdm
 
     from authoring.boids import BoidsParams, record_flock
-    from authoring.ddg import BuildParams, build_ddg
+    from authoring.ddg import DDGBuildParams, build_ddg
     quiet = not progress or not sys.stderr.isatty()
     log(f"recording a {dim}D flock of {agents} for {seconds:g} s (seed {seed}) and building its graph")
     rp = BoidsParams(n_agents=agents, dim=dim)
     with tqdm(total=int(round(seconds * rp.fps)), desc="recording boids", unit="step", disable=quiet) as bar:
         rec = record_flock(rp, seconds, seed=seed, progress=bar.update)
-    ddg, _ = build_ddg(rec, BuildParams(),
+    ddg, _ = build_ddg(rec, DDGBuildParams(),
                        progress=lambda desc, total: tqdm(total=total, desc=desc, unit="pair", disable=quiet, leave=False))
     save_ddg(p, ddg)
     return p

@@ -1,4 +1,5 @@
-"""Data-driven groups benchmark (paper 004, Table 1 and section 6), all figures from one run.
+"""Data-driven groups benchmark (Lai, Chenney and Fan 2005, Table 1 and section 6), all figures
+from one run.
 
     .venv/bin/python bench/ddg.py [--seconds 600] [--flocks 1000] [--ticks 300] [--workers 1]
 
@@ -23,7 +24,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from authoring.boids import BoidsParams, BoidsSim, record_flock  # noqa: E402
-from authoring.ddg import BuildParams, build_ddg  # noqa: E402
+from authoring.ddg import DDGBuildParams, build_ddg  # noqa: E402
 from runtime.flock.region import Box, Polygon  # noqa: E402
 from runtime.flock.walk import FlockSystem  # noqa: E402
 
@@ -104,12 +105,12 @@ def main(argv=None):
         t0 = time.perf_counter()
         rec = record_flock(p, args.seconds, seed=args.seed)
         t_rec = time.perf_counter() - t0
-        g, st = build_ddg(rec, BuildParams(workers=args.workers))
+        g, st = build_ddg(rec, DDGBuildParams(workers=args.workers))
         ddgs[dim], recs[dim] = g, rec
         rows.append((f"20-{dim}D", g.n_transitions, g.nbytes / 1e6, st.seconds_total, t_rec, st, g))
 
-    print(f"\nTable 1 (paper 004): DDGs built from {args.seconds:g} s of 20-agent boids "
-          f"(candidates every {BuildParams().candidate_stride} frames, workers={args.workers})")
+    print(f"\nTable 1 (Lai, Chenney and Fan 2005): DDGs built from {args.seconds:g} s of 20-agent boids "
+          f"(candidates every {DDGBuildParams().candidate_stride} frames, workers={args.workers})")
     print(f"{'Descr.':<7} {'Trans.':>6} {'Mem.MB':>7} {'Time s':>7} | {'nodes':>5} {'edges':>5} "
           f"{'cand.':>5} {'pairs':>8} {'exact':>8} {'skipped':>7} {'minima':>6} {'rec. s':>6}")
     for label, trans, mb, secs, t_rec, st, g in rows:

@@ -1,4 +1,5 @@
-"""Boids recorder, DDG construction (paper 004, 4.3), DDG packs and ``crowdweave author flock``."""
+"""Boids recorder, DDG construction (Lai, Chenney and Fan 2005, section 4.3), DDG packs and
+``crowdweave author flock``."""
 from __future__ import annotations
 
 import dataclasses
@@ -10,10 +11,10 @@ from scipy.sparse.csgraph import connected_components
 
 import authoring.ddg as ddg_build
 from authoring.boids import BoidsParams, BoidsSim, record_flock
-from authoring.ddg import BuildParams, build_ddg, find_transitions
+from authoring.ddg import DDGBuildParams, build_ddg, find_transitions
 from runtime.assets import AssetError, load_pack, save_pack
 from runtime.flock.ddg import DDG, hermite_weights, load_ddg, save_ddg
-from runtime.flock.metric import apply_transform
+from runtime.flock.coords import apply_transform
 
 
 # ---------------------------------------------------------------- recorder
@@ -59,7 +60,7 @@ def _transitions_key(trans):
 def test_pruned_build_chooses_exactly_the_brute_force_transitions(small_recording, cap):
     rec = small_recording
     max_rms = {(2, "tight"): 0.32, (2, "loose"): 0.5, (3, "tight"): 0.75, (3, "loose"): 0.9}[rec.dim, cap]
-    base = BuildParams(candidate_stride=10, transitions_per_minute=20.0, max_rms=max_rms,
+    base = DDGBuildParams(candidate_stride=10, transitions_per_minute=20.0, max_rms=max_rms,
                        min_gap_seconds=3.0, first_round_cells=200, batch=512)
     brute, bi = find_transitions(rec.positions, rec.velocities, rec.fps,
                                  dataclasses.replace(base, use_bound=False), max_step=rec.max_step)
@@ -82,7 +83,7 @@ def test_pruned_build_chooses_exactly_the_brute_force_transitions(small_recordin
 def test_pruning_comparison_can_fail(small_recording, monkeypatch):
     """The equality above is not vacuous: a bound that overshoots skips real minima."""
     rec = small_recording
-    base = BuildParams(candidate_stride=10, transitions_per_minute=20.0, max_rms=0.8, min_gap_seconds=3.0,
+    base = DDGBuildParams(candidate_stride=10, transitions_per_minute=20.0, max_rms=0.8, min_gap_seconds=3.0,
                        first_round_cells=200)
     brute, _ = find_transitions(rec.positions, rec.velocities, rec.fps,
                                 dataclasses.replace(base, use_bound=False), max_step=rec.max_step)
@@ -95,7 +96,7 @@ def test_pruning_comparison_can_fail(small_recording, monkeypatch):
 # ---------------------------------------------------------------- graph
 @pytest.fixture(scope="module")
 def built(small_recording):
-    return build_ddg(small_recording, BuildParams(candidate_stride=10, transitions_per_minute=30.0))
+    return build_ddg(small_recording, DDGBuildParams(candidate_stride=10, transitions_per_minute=30.0))
 
 
 def test_graph_is_strongly_connected_without_dead_ends(built):

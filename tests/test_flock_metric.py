@@ -1,4 +1,5 @@
-"""Configuration frame, discrete-agent metric and its lower bound (paper 004, section 4)."""
+"""Configuration frame, discrete-agent metric and its lower bound (Lai, Chenney and Fan 2005,
+section 4)."""
 from __future__ import annotations
 
 import itertools
@@ -7,9 +8,9 @@ import numpy as np
 import pytest
 
 from authoring.boids import BoidsParams, record_flock
-from runtime.flock.metric import (_best_yaw, apply_transform, bound_features, configuration_frame, energy,
-                                  lower_bound, lower_bound_matrix, match, match_batch, take_features,
-                                  yaw_rotate)
+from runtime.flock.coords import apply_transform, yaw_rotate
+from runtime.flock.metric import (best_yaw, bound_features, configuration_frame, energy, lower_bound,
+                                  lower_bound_matrix, match, match_batch, take_features)
 
 
 @pytest.fixture(scope="module", params=[2, 3], ids=["2d", "3d"])
@@ -161,7 +162,7 @@ def test_lower_bound_below_brute_force_minimum(dim):
             a0, b0 = A - A.mean(0), B[perms] - B.mean(0)
             va, vb = np.repeat(VA[None], k, 0), VB[perms]
             aa = np.repeat(a0[None], k, 0)
-            yaw = _best_yaw(aa, va, b0, vb, w * w)
+            yaw = best_yaw(aa, va, b0, vb, w * w)
             true_min = energy(aa, va, b0, vb, yaw, w * w).min()
             assert d[0].min() >= true_min - 1e-12
             f = bound_features(np.stack([A, B]), np.stack([VA, VB]), w)

@@ -1,5 +1,5 @@
 """samples/flock_region_2d and _3d bake end to end: flocks stay in their region prim's outline,
-no agent jumps, the stage validates (issue 7, points 4-6)."""
+no agent jumps, the stage validates."""
 import json
 from pathlib import Path
 

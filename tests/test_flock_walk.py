@@ -1,4 +1,4 @@
-"""Walking DDGs (paper 004, section 5): correspondence tracking, random and region-constrained
+"""Walking DDGs (Lai, Chenney and Fan 2005, section 5): correspondence tracking, random and region-constrained
 walks of many flocks, regions, determinism; the runtime never imports authoring."""
 from __future__ import annotations
 
@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from authoring.boids import BoidsParams, record_flock
-from authoring.ddg import BuildParams, build_ddg
+from authoring.ddg import DDGBuildParams, build_ddg
 from runtime.flock.check import WalkChecker
+from runtime.flock.containment import EdgeContainment
+from runtime.flock.coords import yaw_rotate
 from runtime.flock.region import Box, Polygon
 from runtime.flock.walk import FlockSystem
 from runtime.motion import quat
@@ -25,7 +27,7 @@ BOX = Box([-35, 0, -35], [35, 40, 35])
 @pytest.fixture(scope="module", params=[2, 3], ids=["2d", "3d"])
 def ddg(request):
     rec = record_flock(BoidsParams(dim=request.param), 150.0, seed=1)
-    g, _ = build_ddg(rec, BuildParams())
+    g, _ = build_ddg(rec, DDGBuildParams())
     return g
 
 
@@ -84,6 +86,11 @@ def test_checker_flags_jumps_and_escapes():
     ch.update(p, 1 / 30)
     r = ch.summary()
     assert not r["ok"] and r["step_violations"] >= 2 and r["frames_outside"] == 1
+    rep = ch.report()
+    assert rep.kind == "flock" and not rep.passed and rep.summary() == r
+    assert r["kind"] == "flock" and r["passed"] is False
+    assert rep.to_dict()["frames_outside"] == [1]
+    assert str(rep).startswith("flock check: FAILED | ticks 4 | flocks 1 | frames outside 1")
 
 
 def test_correspondence_keeps_identities_through_transitions(ddg):
@@ -202,7 +209,7 @@ def test_runtime_does_not_import_authoring():
 def test_lookahead_containment_matches_brute_force(ddg, frame_exact):
     """The circle shortcuts of the look-ahead never accept an edge whose centroid leaves the
     region; with ``frame_exact`` they accept exactly the edges that stay inside."""
-    fs = FlockSystem(ddg, frame_exact=frame_exact)
+    containment = EdgeContainment(ddg, frame_exact=frame_exact)
     region = L_SHAPE if ddg.dim == 2 else BOX
     d = ddg.derived()
     rng = np.random.default_rng(1)
@@ -211,12 +218,12 @@ def test_lookahead_containment_matches_brute_force(ddg, frame_exact):
         v = int(rng.integers(ddg.n_nodes))
         yaw = rng.uniform(-np.pi, np.pi)
         t = np.array([rng.uniform(-45, 45), rng.uniform(0, 40) if ddg.dim == 3 else 0.0, rng.uniform(-45, 45)])
-        got, depth = fs._inside_edges(region, v, yaw, *t)
+        got, depth = containment.inside_edges(region, v, yaw, *t)
         truth = []
         for k in range(d["out_start"][v], d["out_start"][v + 1]):
             e = int(d["out_edges"][k])
             tr = d["track"][d["track_start"][e] + 1:d["track_start"][e + 1]]
-            w = FlockSystem._rot3(np.full(len(tr), yaw), tr) + t
+            w = yaw_rotate(tr, np.full(len(tr), yaw)) + t
             if region.contains(w).all():
                 truth.append(e)
                 if e in got:
@@ -232,9 +239,8 @@ def test_lookahead_containment_matches_brute_force(ddg, frame_exact):
 def test_every_edge_taken_is_followed_by_the_kept_look_ahead(ddg):
     """When a region flock takes an edge, its verified plan beyond that edge runs at least
     ``(search_factor - 1) * horizon``: the look-ahead for a node runs before the edge taken
-    there is committed, and extends the plan from its end. (The first walk searched again only
-    once the plan after the *current* edge ran under the horizon, so a long edge taken next
-    could leave a few seconds of verified future -- too little to turn away from a dead end.)"""
+    there is committed, and extends the plan from its end, so a long edge taken next never
+    leaves only a few seconds of verified future -- too little to turn away from a dead end."""
     pos0, region = _start(ddg, 4)
     fs = FlockSystem(ddg, seed=11)
     fs.add_flocks(pos0, [0.0, 1.5, 3.0, 4.5], region)
@@ -244,7 +250,8 @@ def test_every_edge_taken_is_followed_by_the_kept_look_ahead(ddg):
         e = fs.current_edges()
         moved = np.nonzero(e != edges)[0]
         if moved.size:
-            assert np.all(fs._backup[moved] >= fs.keep_frames), (fs._backup[moved], fs.keep_frames)
+            planned = fs.planned_frames()[moved]
+            assert np.all(planned >= fs.keep_frames), (planned, fs.keep_frames)
             taken += moved.size
         edges = e
     assert taken > 4 * 20 and fs.stats["search_failures"] == 0
@@ -255,10 +262,9 @@ def test_every_edge_taken_is_followed_by_the_kept_look_ahead(ddg):
 def test_region_walk_turns_away_from_dead_ends(dim, recording_seed):
     """Sparser graphs in smaller regions have dead ends tens of seconds deep (states from which
     every path leaves the region sooner or later); the look-ahead sees far enough to turn away
-    in time. (With a 20 s look-ahead 1 to 7 of these 20 flocks left their region within
-    5 minutes and stayed out for minutes.)"""
+    in time."""
     rec = record_flock(BoidsParams(dim=dim), 150.0, seed=recording_seed)
-    g, _ = build_ddg(rec, BuildParams())
+    g, _ = build_ddg(rec, DDGBuildParams())
     n, ticks, dt = 20, 5 * 60 * 30, 1.0 / 30.0
     pos0 = np.zeros((n, 3))
     if dim == 3:
@@ -281,8 +287,7 @@ def test_region_walk_turns_away_from_dead_ends(dim, recording_seed):
 
 def test_a_flock_outside_its_new_region_walks_into_it(ddg):
     """A flock with no inside path left -- here: given a region it is not in -- follows recovery
-    paths into the region and mostly stays in once there (the first walk kept taking the first
-    out-edge, so such a flock never came back)."""
+    paths into the region and mostly stays in once there."""
     a = Box([-35, 0, -35], [35, 40, 35])
     b = Box([45, 0, -35], [115, 40, 35])
     n, ticks = 3, 30 * 240

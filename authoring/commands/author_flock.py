@@ -1,5 +1,5 @@
 """``crowdweave author flock --agents 20 --dim 2 --seconds 300 --seed 1 --out flock.cwpack``:
-record a boids flock and build its data-driven group graph (paper 004)."""
+record a boids flock and build its data-driven group graph (Lai, Chenney and Fan 2005)."""
 from __future__ import annotations
 
 import sys
@@ -29,7 +29,7 @@ def run(args) -> int:
 
     from authoring.boids import BoidsParams, record_flock
     from authoring.cli import CLIError
-    from authoring.ddg import BuildParams, build_ddg
+    from authoring.ddg import DDGBuildParams, build_ddg
     from runtime.flock.ddg import save_ddg
 
     if args.agents < 2:
@@ -48,7 +48,7 @@ def run(args) -> int:
         kw["use_bound"] = False
     kw["workers"] = max(1, args.workers)
     try:
-        bparams = BuildParams(**kw)
+        bparams = DDGBuildParams(**kw)
         rparams = BoidsParams(n_agents=args.agents, dim=args.dim)
     except ValueError as e:
         raise CLIError(str(e)) from None

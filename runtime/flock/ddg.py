@@ -1,4 +1,5 @@
-"""Data-driven group (DDG) graph: the asset a flock walks (paper 004, sections 4.3 and 5).
+"""Data-driven group (DDG) graph: the asset a flock walks (Lai, Chenney and Fan 2005, sections
+4.3 and 5).
 
 Layout. A DDG is cut from one recording of a flock (positions at ``fps``, coordinates ``(x, z)``
 in 2D or ``(x, y, z)`` in 3D, Y up). *Nodes* are recording frames where transitions leave or
@@ -34,8 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, save_pack
-from .metric import configuration_heading, horizontal_axes
+from ..assets import AssetError, load_pack, pack_fields, save_pack
+from .coords import to_xyz, yaw_rotate
+from .metric import configuration_heading
 
 __all__ = ["DDG", "save_ddg", "load_ddg", "hermite_weights", "PACK_KIND", "PACK_VERSION"]
 
@@ -227,32 +229,17 @@ class DDG:
         h00, h10 = hermite_weights(s_of, self.edge_blend[e_of])
         cen += h00[:, None] * self.edge_d0.mean(axis=1, dtype=np.float64)[e_of] \
             + h10[:, None] * self.edge_d1.mean(axis=1, dtype=np.float64)[e_of]
-        ix, iz = horizontal_axes(D)
-        c, s = np.cos(self.edge_yaw[e_of]), np.sin(self.edge_yaw[e_of])
-        tr = np.empty_like(cen)
-        tr[:] = cen
-        tr[:, ix] = c * cen[:, ix] + s * cen[:, iz]
-        tr[:, iz] = -s * cen[:, ix] + c * cen[:, iz]
+        tr = yaw_rotate(cen, self.edge_yaw[e_of])
         tr += self.edge_trans[e_of]
-        track3 = np.zeros((total, 3))
-        if D == 2:
-            track3[:, 0], track3[:, 2] = tr[:, 0], tr[:, 1]
-        else:
-            track3[:] = tr
-        trans3 = np.zeros((E, 3))
-        if D == 2:
-            trans3[:, 0], trans3[:, 2] = self.edge_trans[:, 0], self.edge_trans[:, 1]
-        else:
-            trans3[:] = self.edge_trans
         self._derived = {
             "out_start": out_start, "out_edges": order.astype(np.int64),
             "edge_len": elen, "node_pos": node_pos, "node_vel": node_vel,
             "node_centroid": node_centroid, "node_heading": node_heading,
-            "track_start": track_start, "track": track3, "edge_trans3": trans3,
+            "track_start": track_start, "track": to_xyz(tr), "edge_trans3": to_xyz(self.edge_trans),
         }
         return self._derived
 
-    # ---------------------------------------------------------------- playback helper
+    # ---------------------------------------------------------------- playback
     def edge_positions(self, e: int) -> np.ndarray:
         """Blended positions (L+1, N, D) of edge ``e`` in its segment's coordinates (float64)."""
         L = int(self.edge_len[e])
@@ -284,11 +271,9 @@ def load_ddg(path) -> DDG:
     for key in ("dim", "fps", "max_step"):
         if not isinstance(meta.get(key), (int, float)):
             raise AssetError(path, f"meta field {key!r} missing or not a number")
-    try:
+    with pack_fields(path, "invalid DDG"):
         g = DDG(dim=int(meta["dim"]), fps=float(meta["fps"]), max_step=float(meta["max_step"]),
                 meta={k: v for k, v in meta.items() if k not in ("dim", "fps", "max_step", "n_agents")},
                 **{n: pack.arrays[n] for n in _ARRAYS})
         g.validate()
-    except (ValueError, TypeError) as e:
-        raise AssetError(path, f"invalid DDG: {e}") from None
     return g

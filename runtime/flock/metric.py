@@ -1,4 +1,5 @@
-"""Group configurations and the discrete-agent comparison metric (paper 004, sections 4.1-4.2).
+"""Group configurations and the discrete-agent comparison metric (Lai, Chenney and Fan 2005,
+sections 4.1-4.2).
 
 Configuration frame (4.1): origin ``O_c = mean_i x_i`` (the centroid), x axis along the mean
 velocity ``X_c = mean_i v_i``; in 3D the roll is fixed by the world up direction,
@@ -50,54 +51,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .coords import horizontal_axes, yaw_rotate
+
 __all__ = [
-    "Match", "configuration_frame", "configuration_heading", "yaw_rotate", "apply_transform",
-    "invert_transform", "compose_transforms", "match", "match_batch", "energy",
-    "bound_features", "take_features", "lower_bound", "lower_bound_matrix", "horizontal_axes",
+    "Match", "configuration_frame", "configuration_heading", "match", "match_batch", "energy",
+    "best_yaw", "bound_features", "take_features", "lower_bound", "lower_bound_matrix",
 ]
 
 # Relative slack taken off the lower bound so rounding can never lift it above the metric.
 _BOUND_SLACK = 1e-10
-
-
-def horizontal_axes(dim: int) -> tuple[int, int]:
-    """Column indices of x and z in a ``dim``-D point: (0, 1) in 2D, (0, 2) in 3D."""
-    if dim == 2:
-        return 0, 1
-    if dim == 3:
-        return 0, 2
-    raise ValueError(f"configurations are 2D or 3D, got dimension {dim}")
-
-
-def yaw_rotate(p: np.ndarray, yaw) -> np.ndarray:
-    """Rotate points ``p`` (..., D) about +Y by ``yaw`` (broadcast over ``p[..., 0]``)."""
-    p = np.asarray(p)
-    ix, iz = horizontal_axes(p.shape[-1])
-    c = np.cos(yaw)
-    s = np.sin(yaw)
-    out = p.copy() if p.dtype.kind == "f" else p.astype(np.float64)
-    x = p[..., ix]
-    z = p[..., iz]
-    out[..., ix] = c * x + s * z
-    out[..., iz] = -s * x + c * z
-    return out
-
-
-def apply_transform(yaw, t, p: np.ndarray) -> np.ndarray:
-    """``X p = R_y(yaw) p + t`` for points (..., D)."""
-    return yaw_rotate(p, yaw) + np.asarray(t)
-
-
-def invert_transform(yaw, t):
-    """Inverse of ``(yaw, t)``: ``p = R^-1 (q - t)``."""
-    yaw = np.asarray(yaw, dtype=np.float64)
-    t = np.asarray(t, dtype=np.float64)
-    return -yaw, -yaw_rotate(t, -yaw)
-
-
-def compose_transforms(yaw1, t1, yaw2, t2):
-    """``X1 o X2`` (apply ``X2`` first)."""
-    return np.asarray(yaw1) + np.asarray(yaw2), yaw_rotate(np.asarray(t2, dtype=np.float64), yaw1) + t1
 
 
 def configuration_heading(velocities: np.ndarray) -> np.ndarray:
@@ -109,7 +71,7 @@ def configuration_heading(velocities: np.ndarray) -> np.ndarray:
 
 
 def configuration_frame(positions: np.ndarray, velocities: np.ndarray, up=(0.0, 1.0, 0.0)):
-    """The configuration-space frame of a group (paper 4.1).
+    """The configuration-space frame of a group (Lai, Chenney and Fan 2005, section 4.1).
 
     Returns ``(origin, axes)``: ``origin`` (..., D) is the centroid; ``axes`` (..., D, D) holds
     the unit axes as rows — ``X_c`` along the mean velocity and, in 2D, ``Y_c`` the in-plane
@@ -161,16 +123,6 @@ class Match:
         return float(np.sqrt(max(self.distance, 0.0)))
 
 
-def _rot(p, c, s, ix, iz):
-    """Rotate (P, N, D) points by per-pair cos/sin (P,)."""
-    out = p.copy()
-    x = p[..., ix]
-    z = p[..., iz]
-    out[..., ix] = c[:, None] * x + s[:, None] * z
-    out[..., iz] = -s[:, None] * x + c[:, None] * z
-    return out
-
-
 def _sqnorm(d):
     """Squared norm over a short trailing axis (component-wise: faster than a reduction)."""
     out = d[..., 0] * d[..., 0]
@@ -181,17 +133,17 @@ def _sqnorm(d):
 
 def energy(a, va, bm, vbm, yaw, w2: float) -> np.ndarray:
     """E for centred, already matched points: (P, N, D) arrays, ``yaw`` (P,) -> (P,)."""
-    ix, iz = horizontal_axes(a.shape[-1])
-    c, s = np.cos(yaw), np.sin(yaw)
-    diff = a - _rot(bm, c, s, ix, iz)
+    diff = a - yaw_rotate(bm, yaw[:, None])
     e = _sqnorm(diff)
     if w2:
-        dv = va - _rot(vbm, c, s, ix, iz)
+        dv = va - yaw_rotate(vbm, yaw[:, None])
         e = e + w2 * _sqnorm(dv)
     return e.sum(-1) / a.shape[-2]
 
 
-def _best_yaw(a, va, bm, vbm, w2: float) -> np.ndarray:
+def best_yaw(a, va, bm, vbm, w2: float) -> np.ndarray:
+    """The yaw (P,) minimising :func:`energy` for centred, already matched points (P, N, D):
+    ``atan2(sum a_x b_z - a_z b_x, sum a_x b_x + a_z b_z)``, velocities weighted by ``w2``."""
     ix, iz = horizontal_axes(a.shape[-1])
     al = (a[..., ix] * bm[..., ix] + a[..., iz] * bm[..., iz]).sum(-1)
     be = (a[..., ix] * bm[..., iz] - a[..., iz] * bm[..., ix]).sum(-1)
@@ -217,7 +169,6 @@ def match_batch(a_pos, a_vel, b_pos, b_vel, velocity_weight: float = 0.0, max_it
         raise ValueError(f"expected matching (P, N, D) arrays, got {a_pos.shape}, {a_vel.shape}, "
                          f"{b_pos.shape}, {b_vel.shape}")
     P, N, D = a_pos.shape
-    ix, iz = horizontal_axes(D)
     w2 = float(velocity_weight) ** 2
     ca = a_pos.mean(axis=1)
     cb = b_pos.mean(axis=1)
@@ -234,13 +185,12 @@ def match_batch(a_pos, a_vel, b_pos, b_vel, velocity_weight: float = 0.0, max_it
             break
         aa, va, bb, vb = a[active], a_vel[active], b[active], b_vel[active]
         y = yaw[active]
-        c, s = np.cos(y), np.sin(y)
-        rb = _rot(bb, c, s, ix, iz)
+        rb = yaw_rotate(bb, y[:, None])
         # |a_i - R b_j|^2 = |a_i|^2 + |b_j|^2 - 2 a_i . R b_j: the squared norms add the same
         # constant to every complete assignment, so the assignment maximises the cross term
         gain = aa @ rb.transpose(0, 2, 1)
         if w2:
-            rvb = _rot(vb, c, s, ix, iz)
+            rvb = yaw_rotate(vb, y[:, None])
             gain = gain + w2 * (va @ rvb.transpose(0, 2, 1))
         cost = -gain
         # assignment step: Kuhn-Munkres on the current alignment
@@ -250,7 +200,7 @@ def match_batch(a_pos, a_vel, b_pos, b_vel, velocity_weight: float = 0.0, max_it
         vbm = np.take_along_axis(vb, new_perm[:, :, None], axis=1)
         d_match = energy(aa, va, bm, vbm, y, w2)
         # alignment step: closed-form best yaw for this matching (centroids stay aligned)
-        y_new = _best_yaw(aa, va, bm, vbm, w2)
+        y_new = best_yaw(aa, va, bm, vbm, w2)
         d_align = energy(aa, va, bm, vbm, y_new, w2)
         if trace:
             for k, p in enumerate(active):
@@ -269,8 +219,10 @@ def match_batch(a_pos, a_vel, b_pos, b_vel, velocity_weight: float = 0.0, max_it
         else:
             go = better & changed & (d_align < prev - 1e-14 * prev)
         active = active[go]
+    # wrapped to (-pi, pi] through atan2 (the DDG stores these yaws; planar.wrap_angle's
+    # (a + pi) % 2pi - pi rounds differently and maps pi to -pi)
     yaw = np.arctan2(np.sin(yaw), np.cos(yaw))
-    trans = ca - _rot(cb[:, None, :], np.cos(yaw), np.sin(yaw), ix, iz)[:, 0]
+    trans = ca - yaw_rotate(cb, yaw)
     if trace:
         return dist, perm, yaw, trans, iters, traces
     return dist, perm, yaw, trans, iters

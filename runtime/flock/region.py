@@ -1,4 +1,4 @@
-"""Regions that constrain a flock's centroid (paper 004, section 5.2).
+"""Regions that constrain a flock's centroid (Lai, Chenney and Fan 2005, section 5.2).
 
 A region answers ``contains(points)`` for world points (..., 3) (metres, Y up), vectorized.
 
@@ -82,6 +82,8 @@ class Polygon(Region):
         self._z1 = np.roll(v[:, 1], -1)
         dz = self._z1 - self._z0
         self._slope = np.where(dz != 0, (self._x1 - self._x0) / np.where(dz != 0, dz, 1.0), 0.0)
+        self._bound = None          # depth_bound(), built on first use
+        self._edges_list = None     # _edges_py(), built on first use
 
     @classmethod
     def from_points(cls, points_xyz, y_min: float = -np.inf, y_max: float = np.inf) -> "Polygon":
@@ -123,7 +125,7 @@ class Polygon(Region):
         """Depth sampled on a ``cells`` x ``cells`` grid over the polygon's bounding box (cell
         ``h``): a cell holds the depth at its centre minus half its diagonal, never above the
         depth of any point in it and at most ``h * sqrt(2)`` below. Outside the grid: -inf."""
-        if getattr(self, "_bound", None) is None:
+        if self._bound is None:
             lo = self.vertices.min(axis=0)
             hi = self.vertices.max(axis=0)
             h = float(max(hi - lo)) / cells
@@ -200,7 +202,7 @@ class Polygon(Region):
         return inside
 
     def _edges_py(self):
-        e = getattr(self, "_edges_list", None)
+        e = self._edges_list
         if e is None:
             ex, ez = self._x1 - self._x0, self._z1 - self._z0
             e = self._edges_list = list(zip(self._x0.tolist(), self._z0.tolist(), self._z1.tolist(),
