@@ -36,13 +36,13 @@ def run(args) -> int:
 
     from authoring.bvh import BVHError
     from authoring.cli import CLIError
-    from authoring.patches.build import BuildParams, PatchBuildError, build_patch_library
+    from authoring.patches.build import PatchBuildParams, PatchBuildError, build_patch_library
     from authoring.takes import TakeError, find_take_dirs, load_take
     from runtime.assets import AssetError
 
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
-    params = BuildParams()
+    params = PatchBuildParams()
     b = params.boundaries
     for name, attr, ok in (("threshold", "threshold", lambda v: v > 0), ("k", "k", lambda v: 1 <= v <= 16),
                            ("weight", "weight", lambda v: v >= 0), ("max_pad", "max_pad_s", lambda v: v > 0)):

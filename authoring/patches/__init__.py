@@ -6,8 +6,8 @@
 :mod:`.build` (cutting fragments, constraints, pose classes, single-character patches).
 The patch data model is :mod:`runtime.tiling.patch`.
 """
-from .build import BuildParams, BuildResult, PatchBuildError, build_patch_library
+from .build import PatchBuildParams, BuildResult, PatchBuildError, build_patch_library
 from .episodes import EpisodeParams, detect_episodes, detect_events, score_against_ground_truth
 
-__all__ = ["BuildParams", "BuildResult", "PatchBuildError", "build_patch_library", "EpisodeParams",
+__all__ = ["PatchBuildParams", "BuildResult", "PatchBuildError", "build_patch_library", "EpisodeParams",
            "detect_episodes", "detect_events", "score_against_ground_truth"]

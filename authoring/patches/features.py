@@ -30,8 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from runtime.motion import quat
-from runtime.motion.clip import Clip, rotate_xz
+from runtime.motion.clip import Clip
 from runtime.motion.fk import end_site_positions
+from runtime.motion.planar import rotate_xz
 
 __all__ = ["BODY_POINTS", "PersonFeatures", "person_features", "pose_vectors", "motion_variation",
            "boundary_features", "VELOCITY_WEIGHT"]

@@ -1,5 +1,5 @@
-"""Space-time index of per-frame oriented boxes (paper 003, section 5.1: "a simple bounding box
-test on individual frames"; hard-parts.md "Tiling speed").
+"""Space-time index of per-frame oriented boxes (Kim, Hwang, Hyun and Lee 2012, section 5.1: "a
+simple bounding box test on individual frames").
 
 Every placed patch instance contributes, for each clock frame it covers, one box per character:
 the root-relative box of :mod:`runtime.tiling.patch` placed at the root (centre, the box's lateral
@@ -23,6 +23,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .region import minimum_image
 
 __all__ = ["BoxIndex", "obb_overlap", "box_samples"]
 
@@ -139,7 +141,7 @@ class BoxIndex:
         for k in (0, 1):
             p = self.period[k]
             if p:
-                d[:, k] -= p * np.round(d[:, k] / p)
+                d[:, k] = minimum_image(d[:, k], p)
         return d
 
     # -- updates ---------------------------------------------------------------------------------
@@ -180,6 +182,11 @@ class BoxIndex:
             self._coarse[owner] = np.nan
 
     # -- queries ---------------------------------------------------------------------------------
+    def owner_extents(self, owners) -> np.ndarray:
+        """Whole-instance boxes (xmin, xmax, zmin, zmax, frame min, frame max) of ``owners``
+        (rows of NaN for owners removed or never inserted)."""
+        return self._coarse[owners]
+
     def coarse_candidates(self, cen, hx, hz, frames, margin=0.0):
         """Owners whose whole-instance box overlaps the query's (no wrap: all live owners
         when wrapping, since the coarse box would need images)."""
