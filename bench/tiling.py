@@ -1,4 +1,5 @@
-"""Static tiling benchmark: the Figure 7 table of paper 003 (12 x 12 m, 20 s, rising density).
+"""Static tiling benchmark: the Figure 7 table of Kim, Hwang, Hyun and Lee 2012 (12 x 12 m, 20 s, rising
+density).
 
 For each density (``seeds``: free placements allowed in Algorithm 1) prints patches, characters,
 size, scene seconds, phase 1 and phase 2 minutes and the independent checker's verdict, next to
@@ -30,7 +31,10 @@ def main(argv=None) -> int:
     from runtime.motion.graph import MotionGraph
     from runtime.tiling.check import check_tiling
     from runtime.tiling.synthetic import synthetic_library
-    from runtime.tiling.tiler import PreparedLibrary, Region, Tiler, TilerConfig
+    from runtime.tiling.config import TilerConfig
+    from runtime.tiling.prepared import PreparedLibrary
+    from runtime.tiling.region import Region
+    from runtime.tiling.tiler import Tiler
     from tiling_interactive import calibration_ms
     graph = MotionGraph.load(ensure_library("default", log=lambda *a: None, progress=False))
     lib = synthetic_library(graph, meets=4)

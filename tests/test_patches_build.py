@@ -1,4 +1,4 @@
-"""Patch construction (authoring.patches, paper 003 section 4): Eq. 4 and Eq. 5, episode
+"""Patch construction (authoring.patches, Kim, Hwang, Hyun and Lee 2012, section 4): Eq. 4 and Eq. 5, episode
 detection against the ground truth of the procedural takes, pose clustering and the boundary
 subset search, the patches built (constraints, snapped boundary poses, eventless cuts), and
 ``crowdweave author patches`` end to end."""

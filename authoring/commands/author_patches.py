@@ -1,4 +1,4 @@
-"""``crowdweave author patches TAKES... --out patches.cwpack``: a motion-patch library (paper 003,
+"""``crowdweave author patches TAKES... --out patches.cwpack``: a motion-patch library (Kim, Hwang, Hyun and Lee 2012,
 section 4) from multi-character takes.
 
 Detects episodes (contact, proximity with reaction, synchronicity), chooses the patch

@@ -1,4 +1,4 @@
-"""Motion-patch construction from multi-character takes (paper 003, section 4).
+"""Motion-patch construction from multi-character takes (Kim, Hwang, Hyun and Lee 2012, section 4).
 
 :mod:`.features` (pose vectors, Eq. 4 motion variation, body points, gaze),
 :mod:`.episodes` (contact, proximity with reaction, synchronicity Eq. 5, merging),

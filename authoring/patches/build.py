@@ -1,4 +1,5 @@
-"""Motion-patch construction (paper 003, section 4): multi-character takes -> a patch library.
+"""Motion-patch construction (Kim, Hwang, Hyun and Lee 2012, section 4): multi-character takes -> a patch
+library.
 
 Pipeline (:func:`build_patch_library`):
 

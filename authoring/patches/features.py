@@ -1,4 +1,4 @@
-"""Per-frame features of a performer for patch construction (paper 003, section 4).
+"""Per-frame features of a performer for patch construction (Kim, Hwang, Hyun and Lee 2012, section 4).
 
 * **Pose vector** ``p_i``: every joint's position relative to the root's ground point, turned
   into the root's heading frame -- the "difference between two fullbody poses ignoring their

@@ -6,9 +6,10 @@ the root-relative box of :mod:`runtime.tiling.patch` placed at the root (centre,
 and forward axes in the world, half extents, height range). Boxes live in a uniform grid over
 (x, z, frame) keyed by one int64, stored as log-structured sorted runs merged like a binary
 counter (at most ``max_runs`` runs, so a query does few binary searches, :func:`key_matches`);
-removal bumps an owner's version in O(1), merges drop stale rows. A query touches the 3 x 3 cells around each of its boxes at the same frame (the cell is
-at least twice the largest box half-diagonal plus the margin), then runs an exact 2-D
-separating-axis test on the oriented boxes and an interval test on the heights, all vectorized.
+removal bumps an owner's version in O(1), merges drop stale rows. A query touches the 3 x 3
+cells around each of its boxes at the same frame (the cell is at least twice the largest box
+half-diagonal plus the margin), then runs an exact 2-D separating-axis test on the oriented
+boxes and an interval test on the heights, all vectorized.
 
 Before any of that, :meth:`coarse_candidates` rejects on the whole-instance box
 (x, z and frame ranges of every owner), so a query far from everything costs one comparison

@@ -83,6 +83,8 @@ class TilingCheckReport(CheckReport):
                 "step_mismatch_cm": round(100 * self.step_mismatch, 3), "links_disagree": self.links_disagree}
 
     def __str__(self):
+        """One line for the CLI and the samples' READMEs (its own wording: "OK", patches,
+        characters and stitches first)."""
         s = self.summary()
         return ("tiling check: " + ("OK" if s["ok"] else "FAILED") + f" | {s['patches']} patches, {s['characters']} characters, "
                 f"{s['stitches']} stitches | dangling {s['danglings']} | interpenetrations {s['interpenetrations']} "
