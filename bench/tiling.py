@@ -1,11 +1,11 @@
-"""Static tiling benchmark: the Figure 7 table of Kim, Hwang, Hyun and Lee 2012 (12 x 12 m, 20 s, rising
-density).
+"""Static tiling benchmark: the Figure 7 table of Kim, Hwang, Hyun and Lee 2012.
 
-For each density (``seeds``: free placements allowed in Algorithm 1) prints patches, characters,
-size, scene seconds, phase 1 and phase 2 minutes and the independent checker's verdict, next to
-the paper's rows (173/374/490/657/907 patches: 0.1+0.2 ... 58+45 minutes; target here: <= 2 min
-for ~900 patches). Wall-clock figures on a shared machine are noisy: a calibration workload is
-timed in the same run and printed in ms (lower = less load), and ``--repeat`` reruns the series.
+A 12 x 12 m region over 20 s at rising density. For each density (``seeds``: free placements
+allowed in Algorithm 1) prints patches, characters, size, scene seconds, phase 1 and phase 2
+minutes and the independent checker's verdict, next to the paper's rows (173/374/490/657/907
+patches: 0.1+0.2 ... 58+45 minutes; target here: <= 2 min for ~900 patches). Wall-clock figures
+on a shared machine are noisy: a calibration workload is timed in the same run and printed in ms
+(lower = less load), and ``--repeat`` reruns the series.
 
     .venv/bin/python bench/tiling.py [--seeds 10 20 35 50 65] [--repeat 1]
 """

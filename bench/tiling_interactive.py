@@ -1,7 +1,6 @@
-"""Interactive tiling benchmark (Kim, Hwang, Hyun and Lee 2012, section 5.3): per-tick cost of
-filling the horizon.
+"""Interactive tiling benchmark: the per-tick cost of filling the horizon.
 
-Scenarios: two teams of four steered by changing targets (the paper's demo), then 50 characters
+Interactive tiling of Kim, Hwang, Hyun and Lee 2012, section 5.3. Scenarios: two teams of four steered by changing targets (the paper's demo), then 50 characters
 (ten teams of five with changing targets in a 24 x 24 m arena). Deterministic: the per-tick
 budget is a work budget (at most 3 extensions per tick, and after the first only while the
 estimated work stays within ``work_budget``, unless a tail is about to be reached). Prints

@@ -1,5 +1,5 @@
-"""``crowdweave author patches TAKES... --out patches.cwpack``: a motion-patch library (Kim, Hwang, Hyun and Lee 2012,
-section 4) from multi-character takes.
+"""``crowdweave author patches TAKES... --out patches.cwpack``: a motion-patch library (Kim, Hwang,
+Hyun and Lee 2012, section 4) from multi-character takes.
 
 Detects episodes (contact, proximity with reaction, synchronicity), chooses the patch
 boundaries over the largest pose groups, cuts one patch per episode and mixes in
@@ -36,7 +36,7 @@ def run(args) -> int:
 
     from authoring.bvh import BVHError
     from authoring.cli import CLIError
-    from authoring.patches.build import PatchBuildParams, PatchBuildError, build_patch_library
+    from authoring.patches.build import PatchBuildError, PatchBuildParams, build_patch_library
     from authoring.takes import TakeError, find_take_dirs, load_take
     from runtime.assets import AssetError
 

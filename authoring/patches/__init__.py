@@ -6,7 +6,7 @@
 :mod:`.build` (cutting fragments, constraints, pose classes, single-character patches).
 The patch data model is :mod:`runtime.tiling.patch`.
 """
-from .build import PatchBuildParams, BuildResult, PatchBuildError, build_patch_library
+from .build import BuildResult, PatchBuildError, PatchBuildParams, build_patch_library
 from .episodes import EpisodeParams, detect_episodes, detect_events, score_against_ground_truth
 
 __all__ = ["PatchBuildParams", "BuildResult", "PatchBuildError", "build_patch_library", "EpisodeParams",

@@ -60,6 +60,11 @@ class PatchBuildError(ValueError):
 
 @dataclass
 class PatchBuildParams:
+    """Settings of :func:`build_patch_library`: episode detection (:class:`.episodes.
+    EpisodeParams`), boundaries (:class:`.boundaries.BoundaryParams`), ``snap_frames`` over which
+    the snap to a class's representative pose is blended out, ``node_match`` (RMS metres) for a
+    pose group to take a graph hub's name, and the cutting of single-character patches from the
+    takes (``single_min_frames``, ``single_max_s``, ``idle_every_s``, ``max_single_per_take``)."""
     episodes: EpisodeParams = field(default_factory=EpisodeParams)
     boundaries: BoundaryParams = field(default_factory=BoundaryParams)
     snap_frames: int = 8
