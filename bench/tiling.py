@@ -1,10 +1,11 @@
-"""Static tiling benchmark: the Figure 7 table of paper 003 (12 x 12 m, 20 s, rising density).
+"""Static tiling benchmark: the Figure 7 table of Kim, Hwang, Hyun and Lee 2012.
 
-For each density (``seeds``: free placements allowed in Algorithm 1) prints patches, characters,
-size, scene seconds, phase 1 and phase 2 minutes and the independent checker's verdict, next to
-the paper's rows (173/374/490/657/907 patches: 0.1+0.2 ... 58+45 minutes; target here: <= 2 min
-for ~900 patches). Wall-clock figures on a shared machine are noisy: a calibration workload is
-timed in the same run and printed in ms (lower = less load), and ``--repeat`` reruns the series.
+A 12 x 12 m region over 20 s at rising density. For each density (``seeds``: free placements
+allowed in Algorithm 1) prints patches, characters, size, scene seconds, phase 1 and phase 2
+minutes and the independent checker's verdict, next to the paper's rows (173/374/490/657/907
+patches: 0.1+0.2 ... 58+45 minutes; target here: <= 2 min for ~900 patches). Wall-clock figures
+on a shared machine are noisy: a calibration workload is timed in the same run and printed in ms
+(lower = less load), and ``--repeat`` reruns the series.
 
     .venv/bin/python bench/tiling.py [--seeds 10 20 35 50 65] [--repeat 1]
 """
@@ -30,7 +31,10 @@ def main(argv=None) -> int:
     from runtime.motion.graph import MotionGraph
     from runtime.tiling.check import check_tiling
     from runtime.tiling.synthetic import synthetic_library
-    from runtime.tiling.tiler import PreparedLibrary, Region, Tiler, TilerConfig
+    from runtime.tiling.config import TilerConfig
+    from runtime.tiling.prepared import PreparedLibrary
+    from runtime.tiling.region import Region
+    from runtime.tiling.tiler import Tiler
     from tiling_interactive import calibration_ms
     graph = MotionGraph.load(ensure_library("default", log=lambda *a: None, progress=False))
     lib = synthetic_library(graph, meets=4)

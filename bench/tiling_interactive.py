@@ -1,14 +1,15 @@
-"""Interactive tiling benchmark (paper 003, section 5.3): per-tick cost of filling the horizon.
+"""Interactive tiling benchmark: the per-tick cost of filling the horizon.
 
-Scenarios: two teams of four steered by changing targets (the paper's demo), then 50 characters
+Interactive tiling of Kim, Hwang, Hyun and Lee 2012, section 5.3. Scenarios: two teams of four steered by changing targets (the paper's demo), then 50 characters
 (ten teams of five with changing targets in a 24 x 24 m arena). Deterministic: the per-tick
 budget is a work budget (at most 3 extensions per tick, and after the first only while the
 estimated work stays within ``work_budget``, unless a tail is about to be reached). Prints
 p50/p99/max tick milliseconds (wall clock; target p99 <= 16 ms), the p99 of the tick's thread CPU
 time (``cpu p99``: less sensitive to other processes than the wall clock, though not immune),
-extensions, forced patches (no valid candidate) and the checker's summary of the recorded tiling. Timings on a shared machine are noisy: the script
-runs each scenario ``--repeat`` times and prints, before each run, the time of a fixed numpy
-calibration workload in the same process (``calib ms``: compare runs and machines by it).
+extensions, forced patches (no valid candidate) and the checker's summary of the recorded
+tiling. Timings on a shared machine are noisy: the script runs each scenario ``--repeat`` times
+and prints, before each run, the time of a fixed numpy calibration workload in the same process
+(``calib ms``: compare runs and machines by it).
 
     .venv/bin/python bench/tiling_interactive.py [--repeat 2] [--seconds 20]
 """
@@ -75,7 +76,7 @@ def main(argv=None) -> int:
     from authoring.default_library import ensure_library
     from runtime.motion.graph import MotionGraph
     from runtime.tiling.synthetic import synthetic_library
-    from runtime.tiling.tiler import PreparedLibrary
+    from runtime.tiling.prepared import PreparedLibrary
     graph = MotionGraph.load(ensure_library("default", log=lambda *a: None, progress=False))
     prepared = PreparedLibrary(synthetic_library(graph, meets=4))
     two = [(4, (-5.0, 0.0), math.pi / 2), (4, (5.0, 0.0), -math.pi / 2)]

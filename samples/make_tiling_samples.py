@@ -1,4 +1,4 @@
-"""Generate the motion patch tiling samples (paper 003, Figure 7): samples/tiling_*/.
+"""Generate the motion patch tiling samples (Kim, Hwang, Hyun and Lee 2012, Figure 7): samples/tiling_*/.
 
 Each sample folder holds ``tiling.toml`` (the config, see runtime/tiling/scenario.py),
 ``tiling.cwpack`` (the tiling: deformed patch instances; the patch library is rebuilt from the

@@ -1,4 +1,4 @@
-"""Patch construction (authoring.patches, paper 003 section 4): Eq. 4 and Eq. 5, episode
+"""Patch construction (authoring.patches, Kim, Hwang, Hyun and Lee 2012, section 4): Eq. 4 and Eq. 5, episode
 detection against the ground truth of the procedural takes, pose clustering and the boundary
 subset search, the patches built (constraints, snapped boundary poses, eventless cuts), and
 ``crowdweave author patches`` end to end."""
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from authoring.patches.boundaries import BoundaryParams, cluster_poses, group_order, select_subset
-from authoring.patches.build import BuildParams, build_patch_library
+from authoring.patches.build import PatchBuildParams, build_patch_library
 from authoring.patches.episodes import (EpisodeParams, detect_episodes, pair_signals,
                                         score_against_ground_truth)
 from authoring.patches.features import PersonFeatures, motion_variation, pose_vectors
@@ -212,8 +212,8 @@ def test_build_is_deterministic(small_build, tmp_path):
 
 def test_weight_controls_the_number_of_pose_classes(small_build):
     takes, res = small_build
-    few = build_patch_library(takes, BuildParams(boundaries=BoundaryParams(weight=5000.0)), singles="none")
-    many = build_patch_library(takes, BuildParams(boundaries=BoundaryParams(weight=0.0)), singles="none")
+    few = build_patch_library(takes, PatchBuildParams(boundaries=BoundaryParams(weight=5000.0)), singles="none")
+    many = build_patch_library(takes, PatchBuildParams(boundaries=BoundaryParams(weight=0.0)), singles="none")
     assert len(few.chosen) <= len(res.chosen) <= len(many.chosen)
     size = lambda r: sum(p.num_frames for p in r.library.patches)          # noqa: E731
     assert len(few.chosen) < len(many.chosen)
@@ -263,6 +263,6 @@ def test_salsa_episodes_and_patches(cmu_dir):
     tk = import_cmu_duet(cmu_dir / SALSA[0], cmu_dir / SALSA[1])
     eps = detect_episodes(tk)
     assert len(eps) >= 2 and all(e.people == (0, 1) for e in eps)
-    res = build_patch_library([tk], BuildParams(boundaries=BoundaryParams(threshold=0.15)), singles="none")
+    res = build_patch_library([tk], PatchBuildParams(boundaries=BoundaryParams(threshold=0.15)), singles="none")
     assert len(res.library.patches) >= 1
     assert all(p.constraint_error() < 1e-9 for p in res.library.patches)

@@ -3,8 +3,10 @@ import numpy as np
 import pytest
 
 from runtime.tiling.check import check_repeating, check_tiling, layout_copies
+from runtime.tiling.config import TilerConfig
+from runtime.tiling.region import Obstacle, Region
 from runtime.tiling.result import TilingResult
-from runtime.tiling.tiler import Obstacle, Region, Tiler, TilerConfig
+from runtime.tiling.tiler import Tiler
 from test_tiling_util import graph, meet_library, prepared, singles  # noqa: F401  (fixtures)
 
 

@@ -1,4 +1,4 @@
-"""Laplacian path deformation of motion patches (paper 003, section 3)."""
+"""Laplacian path deformation of motion patches (Kim, Hwang, Hyun and Lee 2012, section 3)."""
 import numpy as np
 import pytest
 import scipy.sparse as sp

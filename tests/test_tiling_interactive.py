@@ -1,4 +1,5 @@
-"""Interactive tiling (paper 003, section 5.3): horizon filling per tick, team targets, tracks."""
+"""Interactive tiling (Kim, Hwang, Hyun and Lee 2012, section 5.3): horizon filling per tick, team targets,
+tracks."""
 import math
 
 import numpy as np
@@ -85,7 +86,7 @@ def test_same_seed_same_run(prepared, run):
 @pytest.fixture(scope="module")
 def bench_prepared(graph):
     from runtime.tiling.synthetic import synthetic_library
-    from runtime.tiling.tiler import PreparedLibrary
+    from runtime.tiling.prepared import PreparedLibrary
     return PreparedLibrary(synthetic_library(graph, meets=4))
 
 
@@ -109,8 +110,8 @@ def _bench_teams(prepared, seed, seconds=20.0, **kw):
 @pytest.mark.slow
 def test_interaction_corners_nobody(bench_prepared):
     # seed 5: a meet's walk-out sweeps, seconds later, the spot where a teammate stands; without
-    # the park rules that character had no valid patch left and got overlapping ones
-    # (26 interpenetrations before the fix)
+    # the park rules (runtime.tiling.cornering) that character has no valid patch left and gets
+    # overlapping ones
     it, states = _bench_teams(bench_prepared, seed=5)
     assert it.stats["multi"] >= 1                          # the interaction still happens
     assert not np.isnan(states).any()

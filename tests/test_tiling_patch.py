@@ -1,4 +1,4 @@
-"""Motion patch data model and the motion_patches pack (paper 003, section 3)."""
+"""Motion patch data model and the motion_patches pack (Kim, Hwang, Hyun and Lee 2012, section 3)."""
 import numpy as np
 import pytest
 

@@ -1,13 +1,17 @@
-"""Tiling (paper 003, section 5): Algorithms 1 and 2, control, determinism; checked by the
-independent checker."""
+"""Tiling (Kim, Hwang, Hyun and Lee 2012, section 5): Algorithms 1 and 2, control, determinism;
+checked by the independent checker."""
 import math
 
 import numpy as np
 import pytest
 
 from runtime.tiling.check import check_repeating, check_tiling
+from runtime.tiling.config import TilerConfig
+from runtime.tiling.preference import Preference
+from runtime.tiling.region import Obstacle, Portal, Region
 from runtime.tiling.result import TilingResult
-from runtime.tiling.tiler import (Obstacle, Portal, Preference, Region, Tiler, TilerConfig, tiling_energy)
+from runtime.tiling.state import tiling_energy
+from runtime.tiling.tiler import Tiler
 from test_tiling_util import graph, meet_library, prepared, singles  # noqa: F401  (fixtures)
 
 

@@ -23,5 +23,5 @@ def meet_library(graph, singles):
 
 @pytest.fixture(scope="session")
 def prepared(meet_library):
-    from runtime.tiling.tiler import PreparedLibrary
+    from runtime.tiling.prepared import PreparedLibrary
     return PreparedLibrary(meet_library)

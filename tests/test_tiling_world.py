@@ -1,6 +1,6 @@
-"""Interactive tiling as a system of the runtime World (issue 8, points 6-7): a tiled zone ticks
-with the crowd and the flocks, its characters are drawn with the crowd, steered by targets (and
-by a right-click), baked like crowd characters, and checked independently."""
+"""Interactive tiling as a system of the runtime World: a tiled zone ticks with the crowd and
+the flocks, its characters are drawn with the crowd, steered by targets (and by a right-click),
+baked like crowd characters, and checked independently."""
 import math
 import textwrap
 
@@ -10,7 +10,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom
 
 from runtime.crowd.scenario import ScenarioError, load_scenario
 from runtime.tiling.synthetic import synthetic_library
-from runtime.tiling.tiler import PreparedLibrary
+from runtime.tiling.prepared import PreparedLibrary
 from runtime.tiling.zone import TeamSpec, TilingZone
 from runtime.world import World
 

@@ -1,5 +1,5 @@
-"""``crowdweave author patches TAKES... --out patches.cwpack``: a motion-patch library (paper 003,
-section 4) from multi-character takes.
+"""``crowdweave author patches TAKES... --out patches.cwpack``: a motion-patch library (Kim, Hwang,
+Hyun and Lee 2012, section 4) from multi-character takes.
 
 Detects episodes (contact, proximity with reaction, synchronicity), chooses the patch
 boundaries over the largest pose groups, cuts one patch per episode and mixes in
@@ -36,13 +36,13 @@ def run(args) -> int:
 
     from authoring.bvh import BVHError
     from authoring.cli import CLIError
-    from authoring.patches.build import BuildParams, PatchBuildError, build_patch_library
+    from authoring.patches.build import PatchBuildError, PatchBuildParams, build_patch_library
     from authoring.takes import TakeError, find_take_dirs, load_take
     from runtime.assets import AssetError
 
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
-    params = BuildParams()
+    params = PatchBuildParams()
     b = params.boundaries
     for name, attr, ok in (("threshold", "threshold", lambda v: v > 0), ("k", "k", lambda v: 1 <= v <= 16),
                            ("weight", "weight", lambda v: v >= 0), ("max_pad", "max_pad_s", lambda v: v > 0)):

@@ -1,4 +1,4 @@
-"""Motion-patch construction from multi-character takes (paper 003, section 4).
+"""Motion-patch construction from multi-character takes (Kim, Hwang, Hyun and Lee 2012, section 4).
 
 :mod:`.features` (pose vectors, Eq. 4 motion variation, body points, gaze),
 :mod:`.episodes` (contact, proximity with reaction, synchronicity Eq. 5, merging),
@@ -6,8 +6,8 @@
 :mod:`.build` (cutting fragments, constraints, pose classes, single-character patches).
 The patch data model is :mod:`runtime.tiling.patch`.
 """
-from .build import BuildParams, BuildResult, PatchBuildError, build_patch_library
+from .build import BuildResult, PatchBuildError, PatchBuildParams, build_patch_library
 from .episodes import EpisodeParams, detect_episodes, detect_events, score_against_ground_truth
 
-__all__ = ["BuildParams", "BuildResult", "PatchBuildError", "build_patch_library", "EpisodeParams",
+__all__ = ["PatchBuildParams", "BuildResult", "PatchBuildError", "build_patch_library", "EpisodeParams",
            "detect_episodes", "detect_events", "score_against_ground_truth"]

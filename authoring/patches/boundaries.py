@@ -1,5 +1,5 @@
-"""Boundary determination (paper 003, section 4.2): pose clustering and the choice of pose
-groups at which the patches are cut.
+"""Boundary determination (Kim, Hwang, Hyun and Lee 2012, section 4.2): pose clustering and the
+choice of pose groups at which the patches are cut.
 
 1. **Candidate frames.** For every performer of every episode, the frames before the episode
    (entry side) and after it (exit side) that are *eventless*: at least ``margin_s`` away

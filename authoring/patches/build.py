@@ -1,4 +1,5 @@
-"""Motion-patch construction (paper 003, section 4): multi-character takes -> a patch library.
+"""Motion-patch construction (Kim, Hwang, Hyun and Lee 2012, section 4): multi-character takes -> a patch
+library.
 
 Pipeline (:func:`build_patch_library`):
 
@@ -39,14 +40,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from runtime.motion import Clip, quat
-from runtime.motion.clip import rotate_xz
+from runtime.motion.planar import rotate_xz
 from runtime.tiling.patch import Constraint, Fragment, Patch, PatchLibrary
 
 from .boundaries import BoundaryParams, Side, cluster_poses, group_order, select_subset, side_candidates
 from .episodes import EpisodeParams, detect_episodes
 from .features import boundary_features, person_features
 
-__all__ = ["BuildParams", "BuildResult", "build_patch_library", "PatchBuildError"]
+__all__ = ["PatchBuildParams", "BuildResult", "build_patch_library", "PatchBuildError"]
 
 SINGLE_LABEL_MAP = {"wait": "idle", "idle": "idle", "walk": "walk", "start": "start", "stop": "stop",
                     "turn": "turn", "carry": "carry", "dash": "dash"}
@@ -58,7 +59,12 @@ class PatchBuildError(ValueError):
 
 
 @dataclass
-class BuildParams:
+class PatchBuildParams:
+    """Settings of :func:`build_patch_library`: episode detection (:class:`.episodes.
+    EpisodeParams`), boundaries (:class:`.boundaries.BoundaryParams`), ``snap_frames`` over which
+    the snap to a class's representative pose is blended out, ``node_match`` (RMS metres) for a
+    pose group to take a graph hub's name, and the cutting of single-character patches from the
+    takes (``single_min_frames``, ``single_max_s``, ``idle_every_s``, ``max_single_per_take``)."""
     episodes: EpisodeParams = field(default_factory=EpisodeParams)
     boundaries: BoundaryParams = field(default_factory=BoundaryParams)
     snap_frames: int = 8
@@ -144,13 +150,13 @@ def _refine(side: Side, cand: int, stride: int, feats, medoid, thr):
     return best if np.linalg.norm(feats[best] - medoid) <= thr else cand
 
 
-def build_patch_library(takes, params: BuildParams | None = None, graph=None, singles: str = "takes",
+def build_patch_library(takes, params: PatchBuildParams | None = None, graph=None, singles: str = "takes",
                         progress=None, log=None, seed: int = 0) -> BuildResult:
     """Detect episodes in ``takes`` and build the patch library (see module docstring).
 
     singles: ``"takes"`` (cut from the takes), ``"graph"`` (:func:`single_character_patches`
     of ``graph``), or ``"none"``. ``progress(n)`` is called per take processed."""
-    p = params or BuildParams()
+    p = params or PatchBuildParams()
     bp = p.boundaries
     log = log or (lambda *a: None)
     if singles not in ("takes", "graph", "none"):
@@ -382,7 +388,7 @@ def _pose_fn(skel):
     return f
 
 
-def _episode_patch(tk, ti, e, ends, arr, rep_of, skel, fps, p: BuildParams, snap_err, index):
+def _episode_patch(tk, ti, e, ends, arr, rep_of, skel, fps, p: PatchBuildParams, snap_err, index):
     people = list(e.people)
     first = min(ends[(q, "entry")][0] for q in people)
     k0 = e.start
@@ -422,7 +428,7 @@ def _episode_patch(tk, ti, e, ends, arr, rep_of, skel, fps, p: BuildParams, snap
 
 
 def _single_patches(takes, episodes, bfeat, arrs, class_rot, class_h, class_names, rep_of, skel, fps,
-                    p: BuildParams, margin):
+                    p: PatchBuildParams, margin):
     """Single-character patches between frames of the chosen pose classes in the eventless
     stretches of every performer."""
     # representative boundary features of the classes: from a frame that matches exactly

@@ -1,5 +1,5 @@
-"""Episode detection (paper 003, section 4.1): contact, proximity with reaction, synchronicity;
-nearby events merged into episodes.
+"""Episode detection (Kim, Hwang, Hyun and Lee 2012, section 4.1): contact, proximity with reaction,
+synchronicity; nearby events merged into episodes.
 
 For every pair of performers of a take, on the shared clock:
 

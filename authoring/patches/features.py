@@ -1,4 +1,4 @@
-"""Per-frame features of a performer for patch construction (paper 003, section 4).
+"""Per-frame features of a performer for patch construction (Kim, Hwang, Hyun and Lee 2012, section 4).
 
 * **Pose vector** ``p_i``: every joint's position relative to the root's ground point, turned
   into the root's heading frame -- the "difference between two fullbody poses ignoring their
@@ -30,8 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from runtime.motion import quat
-from runtime.motion.clip import Clip, rotate_xz
+from runtime.motion.clip import Clip
 from runtime.motion.fk import end_site_positions
+from runtime.motion.planar import rotate_xz
 
 __all__ = ["BODY_POINTS", "PersonFeatures", "person_features", "pose_vectors", "motion_variation",
            "boundary_features", "VELOCITY_WEIGHT"]

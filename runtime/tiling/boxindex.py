@@ -1,14 +1,15 @@
-"""Space-time index of per-frame oriented boxes (paper 003, section 5.1: "a simple bounding box
-test on individual frames"; hard-parts.md "Tiling speed").
+"""Space-time index of per-frame oriented boxes (Kim, Hwang, Hyun and Lee 2012, section 5.1: "a
+simple bounding box test on individual frames").
 
 Every placed patch instance contributes, for each clock frame it covers, one box per character:
 the root-relative box of :mod:`runtime.tiling.patch` placed at the root (centre, the box's lateral
 and forward axes in the world, half extents, height range). Boxes live in a uniform grid over
 (x, z, frame) keyed by one int64, stored as log-structured sorted runs merged like a binary
 counter (at most ``max_runs`` runs, so a query does few binary searches, :func:`key_matches`);
-removal bumps an owner's version in O(1), merges drop stale rows. A query touches the 3 x 3 cells around each of its boxes at the same frame (the cell is
-at least twice the largest box half-diagonal plus the margin), then runs an exact 2-D
-separating-axis test on the oriented boxes and an interval test on the heights, all vectorized.
+removal bumps an owner's version in O(1), merges drop stale rows. A query touches the 3 x 3
+cells around each of its boxes at the same frame (the cell is at least twice the largest box
+half-diagonal plus the margin), then runs an exact 2-D separating-axis test on the oriented
+boxes and an interval test on the heights, all vectorized.
 
 Before any of that, :meth:`coarse_candidates` rejects on the whole-instance box
 (x, z and frame ranges of every owner), so a query far from everything costs one comparison
@@ -23,6 +24,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .region import minimum_image
 
 __all__ = ["BoxIndex", "obb_overlap", "box_samples"]
 
@@ -139,7 +142,7 @@ class BoxIndex:
         for k in (0, 1):
             p = self.period[k]
             if p:
-                d[:, k] -= p * np.round(d[:, k] / p)
+                d[:, k] = minimum_image(d[:, k], p)
         return d
 
     # -- updates ---------------------------------------------------------------------------------
@@ -180,6 +183,11 @@ class BoxIndex:
             self._coarse[owner] = np.nan
 
     # -- queries ---------------------------------------------------------------------------------
+    def owner_extents(self, owners) -> np.ndarray:
+        """Whole-instance boxes (xmin, xmax, zmin, zmax, frame min, frame max) of ``owners``
+        (rows of NaN for owners removed or never inserted)."""
+        return self._coarse[owners]
+
     def coarse_candidates(self, cen, hx, hz, frames, margin=0.0):
         """Owners whose whole-instance box overlaps the query's (no wrap: all live owners
         when wrapping, since the coarse box would need images)."""

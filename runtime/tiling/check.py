@@ -1,4 +1,5 @@
-"""Independent checker of a tiling (ARCHITECTURE.md "Verification is part of the product").
+"""Independent checker of a tiling (Kim, Hwang, Hyun and Lee 2012; ARCHITECTURE.md "Verification
+is part of the product").
 
 It trusts nothing the tiler computed: it reads the deformed fragments of every instance
 (:class:`~runtime.tiling.result.TilingResult`) and the rest patches of the library, and
@@ -29,14 +30,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..motion.clip import rotate_xz
+from ..check import CheckReport
 from ..motion.fk import end_site_positions, forward_kinematics
+from ..motion.planar import rotate_xz, wrap_angle
+from .region import Region, minimum_image
+from .result import TilingResult
 
-__all__ = ["CheckReport", "check_tiling", "check_repeating"]
+__all__ = ["TilingCheckReport", "check_tiling", "check_repeating", "layout_copies"]
 
 
 @dataclass
-class CheckReport:
+class TilingCheckReport(CheckReport):
+    """What :func:`check_tiling` found (a :class:`runtime.check.CheckReport`, kind ``"tiling"``):
+    counts, worst values, the dangling ports (instance, fragment, "entry"/"exit", x, z, t) and
+    a few interpenetrations (frame, character, character)."""
+    kind = "tiling"
+
     patches: int = 0
     characters: int = 0
     ports: int = 0
@@ -58,7 +67,14 @@ class CheckReport:
     def ok(self) -> bool:
         return not self.danglings and self.interpenetrations == 0 and self.obstacle_hits == 0 and self.frames_over_limits == 0
 
-    def summary(self) -> dict:
+    @property
+    def passed(self) -> bool:
+        return self.ok
+
+    def details(self) -> dict:
+        return {"danglings": list(self.danglings), "interpenetration_examples": list(self.interpenetration_examples)}
+
+    def figures(self) -> dict:
         return {"ok": self.ok, "patches": self.patches, "characters": self.characters, "stitches": self.stitches,
                 "danglings": len(self.danglings), "interpenetrations": self.interpenetrations,
                 "obstacle_hits": self.obstacle_hits, "frames_over_limits": self.frames_over_limits,
@@ -67,18 +83,14 @@ class CheckReport:
                 "step_mismatch_cm": round(100 * self.step_mismatch, 3), "links_disagree": self.links_disagree}
 
     def __str__(self):
+        """One line for the CLI and the samples' READMEs (its own wording: "OK", patches,
+        characters and stitches first)."""
         s = self.summary()
         return ("tiling check: " + ("OK" if s["ok"] else "FAILED") + f" | {s['patches']} patches, {s['characters']} characters, "
                 f"{s['stitches']} stitches | dangling {s['danglings']} | interpenetrations {s['interpenetrations']} "
                 f"| obstacle hits {s['obstacle_hits']} | frames over limits {s['frames_over_limits']} "
                 f"(max stretch {s['max_stretch_cm']} cm, bend {s['max_bend_deg']} deg, shift {s['max_time_shift_s']} s) "
                 f"| constraint error {s['constraint_error']}")
-
-
-def _wrap(d, period):
-    if period is None:
-        return d
-    return d - period * np.round(d / period)
 
 
 def _ports(res):
@@ -116,9 +128,9 @@ def _match_ports(P, period, tperiod, tol_pos, tol_dir, tol_time):
         m = ent[P[ent, 3] == P[a, 3]]
         if len(m) == 0:
             continue
-        d = _wrap(P[m][:, 5:7] - P[a, 5:7], period)
-        dt = _wrap(P[m, 8] - P[a, 8], tperiod)
-        dh = np.abs((P[m, 7] - P[a, 7] + np.pi) % (2 * np.pi) - np.pi)
+        d = minimum_image(P[m][:, 5:7] - P[a, 5:7], period)
+        dt = minimum_image(P[m, 8] - P[a, 8], tperiod)
+        dh = np.abs(wrap_angle(P[m, 7] - P[a, 7]))
         ok = (np.hypot(d[:, 0], d[:, 1]) <= tol_pos) & (np.abs(dt) <= tol_time) & (dh <= tol_dir)
         ok &= ~((P[m, 0] == P[a, 0]) & (P[m, 1] == P[a, 1]))
         for b in m[ok]:
@@ -157,7 +169,7 @@ def _char_boxes(res, tracks):
 
 
 def _sat(ca, la, hxa, hza, cb, lb, hxb, hzb, period):
-    d = _wrap(cb - ca, period)
+    d = minimum_image(cb - ca, period)
     fa = np.stack([-la[:, 1], la[:, 0]], 1)
     fb = np.stack([-lb[:, 1], lb[:, 0]], 1)
     sep = np.zeros(len(d), bool)
@@ -171,14 +183,14 @@ def _sat(ca, la, hxa, hza, cb, lb, hxb, hzb, period):
 
 def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: float = 2e-3,
                  limits=(0.03, 7.0, 0.018), slack: float = 1e-4, region=None, wrap=None,
-                 max_examples: int = 10) -> CheckReport:
+                 max_examples: int = 10) -> TilingCheckReport:
     """Check a :class:`TilingResult`. ``region``/``wrap`` override the result's (used by
     :func:`check_repeating`). ``slack`` is the numerical allowance on the limits."""
     region = region or res.region
     wrap_space, wrap_time = (region.wrap_space, region.wrap_time) if wrap is None else wrap
     period = np.array([region.x1 - region.x0, region.z1 - region.z0]) if wrap_space else None
     tperiod = (region.t1 - region.t0) if wrap_time else None
-    rep = CheckReport(patches=res.num_instances, limits=tuple(limits))
+    rep = TilingCheckReport(patches=res.num_instances, limits=tuple(limits))
     # -- stitches and danglings ----------------------------------------------------------------
     P = _ports(res)
     rep.ports = len(P)
@@ -221,7 +233,7 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
             mv = (l0 > 0.01) & (l1 > 0.01)
             bend_p = np.zeros_like(bend_h)
             both = mv[1:] & mv[:-1]
-            bend_p[1:] = np.where(both, np.abs((np.diff(ang) + np.pi) % (2 * np.pi) - np.pi), 0.0)
+            bend_p[1:] = np.where(both, np.abs(wrap_angle(np.diff(ang))), 0.0)
             bend = np.degrees(np.maximum(bend_h, bend_p))
             rep.max_stretch = max(rep.max_stretch, float(stretch.max(initial=0)))
             rep.max_bend_deg = max(rep.max_bend_deg, float(bend.max(initial=0)))
@@ -232,7 +244,7 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
             ha = res.heading[i][a]
             rel = rotate_xz(res.xz[i][b] - res.xz[i][a], -ha)
             e = max(float(np.max(np.abs(rel - c.rel_position))),
-                    abs(float((res.heading[i][b] - ha - c.rel_direction + np.pi) % (2 * np.pi) - np.pi)),
+                    abs(float(wrap_angle(res.heading[i][b] - ha - c.rel_direction))),
                     abs(float(res.time[i][b] - res.time[i][a] - c.dt)))
             rep.constraint_error = max(rep.constraint_error, e)
     rep.frames_over_limits = over
@@ -273,7 +285,7 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
         if A:
             a = np.concatenate(A)
             b = np.concatenate(B)
-            near = np.hypot(*_wrap(cen[b] - cen[a], period).T) < rad[a] + rad[b]
+            near = np.hypot(*minimum_image(cen[b] - cen[a], period).T) < rad[a] + rad[b]
             near &= (ch[a] != ch[b]) & (ins[a] != ins[b]) & (ylo[a] < yhi[b]) & (ylo[b] < yhi[a])
             a, b = a[near], b[near]
             hit = _sat(cen[a], lat[a], hx[a], hz[a], cen[b], lat[b], hx[b], hz[b], period)
@@ -296,8 +308,6 @@ def layout_copies(res, nx: int = 3, nz: int = 3, near: float | None = 2.0):
     lies in the tile, then copied by the lattice vectors; returns a new TilingResult (no wrap)
     whose region is the middle tile. ``near``: keep only copies whose root paths come within
     that many metres of the middle tile (all of them with ``None``)."""
-    from .result import TilingResult
-    from .tiler import Region
     r = res.region
     W, H = r.x1 - r.x0, r.z1 - r.z0
     out = dict(patch=[], place=[], fixed=[], xz=[], heading=[], time=[])
@@ -325,7 +335,7 @@ def layout_copies(res, nx: int = 3, nz: int = 3, near: float | None = 2.0):
                         out["time"], np.zeros((0, 4), np.int64), res.obstacles, res.portals, res.fps, {})
 
 
-def check_repeating(res, **kw) -> CheckReport:
+def check_repeating(res, **kw) -> TilingCheckReport:
     """3 x 3 layout of a wrap-around tile, checked without wrapping (middle tile's danglings;
     interpenetrations anywhere in the layout, which includes every border)."""
     if not res.region.wrap_space:

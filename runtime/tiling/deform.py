@@ -1,4 +1,6 @@
-"""Laplacian path deformation of motion patches (paper 003, section 3; Kim et al. 2009).
+"""Laplacian path deformation of motion patches (Kim, Hwang, Hyun and Lee 2012, section 3; the
+multi-character motion editing it builds on: Kim, Hyun, Kim and Lee 2009, "Synchronized
+multi-character motion editing").
 
 Every frame ``i`` of every fragment of a patch carries four unknowns, its displacement from the
 rest patch: planar position ``u_i = (ux, uz)``, a heading change ``phi_i`` and a time change
@@ -29,7 +31,7 @@ Two steps (as in the Laplacian motion editing the paper builds on): step 1 solve
 system above; with ``A = D^T D`` factored once per patch (scipy ``splu``) its solution for any
 handle offsets is ``u = A^-1 C^T (C A^-1 C^T)^+ r``, and :class:`PatchDeformer` keeps the dense map
 ``H = G K^+`` (``G = A^-1 C^T``, ``K = C G``) for the port rows, so a stitch or a jitter costs a
-small matrix-vector product (hard-parts.md, "Tiling speed"). Step 1's headings ``phi`` and times
+small matrix-vector product. Step 1's headings ``phi`` and times
 are kept; step 2 fixes the rotations and solves the positions again -- segment rows
 ``(u_{i+1} - u_i) - (R(phi) - I) d_i``, port position rows, and the interpersonal offsets
 ``u_b - u_a = (R(phi_a) - I)(p_b - p_a)`` exactly (no small-angle error) -- with its own matrix,
@@ -48,7 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..motion.clip import rotate_xz
+from ..motion.planar import rotate_xz, wrap_angle
 
 __all__ = ["Limits", "DEFAULT_LIMITS", "PatchDeformer", "PORT_ROWS", "deformation_measures", "port_row_targets"]
 
@@ -90,7 +92,7 @@ def deformation_measures(rest_xz, rest_heading, rest_time, xz, heading, time, se
     moving = seg_valid & (l0 > min_segment) & (l1 > min_segment)
     if len(rot) > 1:
         both = moving[1:] & moving[:-1]
-        drot = np.abs((rot[1:] - rot[:-1] + np.pi) % (2 * np.pi) - np.pi)
+        drot = np.abs(wrap_angle(rot[1:] - rot[:-1]))
         pb = np.zeros_like(bend)
         pb[1:] = np.where(both, drot, 0.0)
         bend = np.maximum(bend, pb)
@@ -285,8 +287,8 @@ class PatchDeformer:
 def port_row_targets(deformer: PatchDeformer, port: int, position, direction, time, step=None):
     """Handle offsets (6,) in the patch frame that move port ``port`` of the rest patch to
     ``position`` / ``direction`` / ``time`` (all already in the patch frame) with neighbour-frame
-    offset ``step`` (Eq. 2: the neighbour sits at ``position - step`` for an entry's partner
-    exit ... see tiler); ``step=None`` moves the neighbour rigidly with the port."""
+    offset ``step`` (Eq. 2: the neighbour frame sits at ``position + step``); ``step=None`` moves
+    the neighbour rigidly with the port."""
     f = deformer.port_frame[port]
     nb = deformer.port_nb[port]
     dp = np.asarray(position, float) - deformer.xz[f]

@@ -1,4 +1,4 @@
-"""Motion patches (paper 003, section 3): the data model and the ``motion_patches`` pack.
+"""Motion patches (Kim, Hwang, Hyun and Lee 2012, section 3): the data model and the ``motion_patches`` pack.
 
 Contract (shared by the authoring side, the tiler and the checker)
 ------------------------------------------------------------------
@@ -46,22 +46,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, save_pack
-from ..motion.clip import rotate_xz
+from ..assets import AssetError, load_pack, pack_fields, save_pack
 from ..motion.fk import end_site_positions, forward_kinematics
+from ..motion.planar import rotate_xz, wrap_angle
 from ..motion.skeleton import Skeleton
 
 __all__ = ["Fragment", "Constraint", "Port", "Patch", "PatchLibrary", "single_character_patches",
-           "fragment_boxes", "wrap_angle", "PACK_KIND", "PACK_VERSION"]
+           "fragment_boxes", "PACK_KIND", "PACK_VERSION"]
 
 PACK_KIND = "motion_patches"
 PACK_VERSION = 1
-
-
-def wrap_angle(a):
-    """Wrap radians to [-pi, pi)."""
-    a = np.asarray(a, dtype=np.float64)
-    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 # --------------------------------------------------------------------------------------------
@@ -351,7 +345,7 @@ class PatchLibrary:
     @classmethod
     def load(cls, path) -> "PatchLibrary":
         pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
-        try:
+        with pack_fields(path, "motion patch pack is missing a field"):
             meta = dict(pk.meta)
             sk = Skeleton.from_dict(meta.pop("skeleton"))
             fps = float(meta.pop("fps"))
@@ -363,10 +357,6 @@ class PatchLibrary:
             cnames = meta.pop("pose_class_names")
             a = pk.arrays
             pfs, ffs = a["patch_frag_start"], a["frag_frame_start"]
-        except AssetError:
-            raise
-        except Exception as e:
-            raise AssetError(path, f"motion patch pack is missing a field: {type(e).__name__}: {e}") from None
         NF, T, J = len(a["frag_t0"]), len(a["frame_heading"]), sk.num_joints
         problems = []
         if not (len(names) == len(labels) == len(pmeta) == P) or len(pfs) != P + 1:

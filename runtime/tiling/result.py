@@ -27,13 +27,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, save_pack
+from ..assets import AssetError, load_pack, pack_fields, save_pack
 from ..crowd.tracks import Track, evaluate_poses
+from ..motion.planar import rotate_xz_scalar
+from .region import Obstacle, Portal, Region
 
-__all__ = ["TilingResult", "CharacterTrack", "PACK_KIND", "PACK_VERSION"]
+__all__ = ["TilingResult", "CharacterTrack", "continue_heading", "PACK_KIND", "PACK_VERSION"]
 
 PACK_KIND = "motion_tiling"
 PACK_VERSION = 1
+
+
+def continue_heading(h, last):
+    """Headings ``h`` of a fragment shifted by whole turns so that they continue a track whose
+    previous heading is ``last`` (a character's heading stays continuous across stitches)."""
+    return h + 2 * np.pi * np.round((last - h[0]) / (2 * np.pi))
 
 
 @dataclass
@@ -49,7 +57,7 @@ class CharacterTrack(Track):
 @dataclass
 class TilingResult:
     library: object                    # PatchLibrary
-    region: object                     # Region
+    region: Region
     patch: list
     place: list
     fixed: list
@@ -141,7 +149,7 @@ class TilingResult:
                 z = xz[i0, 1] * (1 - w) + xz[i1, 1] * w
                 h = hd[i0] * (1 - w) + hd[i1] * w
                 if last_h is not None:
-                    h = h + 2 * np.pi * np.round((last_h - h[0]) / (2 * np.pi))
+                    h = continue_heading(h, last_h)
                 last_h = h[-1]
                 off = self.library.fragment_offset(self.patch[i], k)
                 fa.append(off + i0)
@@ -168,7 +176,6 @@ class TilingResult:
 
     # -- pack ------------------------------------------------------------------------------------
     def save(self, path, meta: dict | None = None) -> None:
-        from .tiler import Obstacle  # noqa: F401  (documentation of the fields below)
         # instances that are exactly their rigid placement (most of them) store no arrays
         rigid = np.array([self._is_rigid(i) for i in range(self.num_instances)], bool)
         keep = np.flatnonzero(~rigid)
@@ -200,8 +207,7 @@ class TilingResult:
         p = self.library.patches[self.patch[i]]
         x, z, th, t = self.place[i]
         rest = np.concatenate([f.root_xz for f in p.fragments])
-        c, s = math.cos(th), math.sin(th)
-        xz = np.stack([c * rest[:, 0] + s * rest[:, 1] + x, c * rest[:, 1] - s * rest[:, 0] + z], 1)
+        xz = rotate_xz_scalar(rest, th) + (x, z)
         hd = np.concatenate([f.heading for f in p.fragments]) + th
         tm = np.concatenate([f.t0 + np.arange(f.num_frames) / p.fps for f in p.fragments]) + t
         return xz, hd, tm
@@ -213,9 +219,8 @@ class TilingResult:
 
     @classmethod
     def load(cls, path, library) -> "TilingResult":
-        from .tiler import Obstacle, Portal, Region
         pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
-        try:
+        with pack_fields(path, "tiling pack is missing a field"):
             m, a = pk.meta, pk.arrays
             names = m["patch_names"]
             frames = m["patch_frames"]
@@ -226,10 +231,6 @@ class TilingResult:
             portals = [Portal(*p) for p in m["portals"]]
             fps = float(m["fps"])
             ip, pl, fx, st = a["inst_patch"], a["inst_place"], a["inst_fixed"], a["inst_frame_start"]
-        except AssetError:
-            raise
-        except Exception as e:
-            raise AssetError(path, f"tiling pack is missing a field: {type(e).__name__}: {e}") from None
         lib_names = [p.name for p in library.patches]
         lib_frames = [p.num_frames for p in library.patches]
         for i, nm in enumerate(names):

@@ -48,14 +48,20 @@ Errors name the file and the key (:class:`TilingConfigError`).
 from __future__ import annotations
 
 import math
+import time as _time
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
+from .config import TilerConfig
+from .interactive import InteractiveTiling
 from .patch import PatchLibrary, single_character_patches
+from .preference import Preference
+from .prepared import PreparedLibrary
+from .region import Obstacle, Portal, Region
 from .synthetic import synthetic_library
-from .tiler import Obstacle, Portal, Preference, PreparedLibrary, Region, Tiler, TilerConfig
+from .tiler import Tiler
 
 __all__ = ["TilingConfigError", "load_config", "build_library", "make_obstacles", "run_config"]
 
@@ -179,8 +185,6 @@ def run_static(cfg: dict, graph=None, library=None, prepared=None):
 
 def run_interactive(cfg: dict, graph=None, library=None, prepared=None, tick_times: list | None = None):
     """Teams with scheduled targets, stepped on the clock. Returns (TilingResult, InteractiveTiling)."""
-    from .interactive import InteractiveTiling
-    import time as _time
     lib = library or build_library(cfg, graph)
     prep = prepared or PreparedLibrary(lib)
     ic = cfg["interactive"]

@@ -1,6 +1,6 @@
 """Synthetic multi-character patches composed from motion-graph edges.
 
-Stand-ins for the detected patches of the authoring side (issue 8 point 3), used by tests,
+Stand-ins for the detected patches of the authoring side (:mod:`authoring.patches`), used by tests,
 benchmarks and samples so they need nothing but the runtime motion graph. Each character's
 fragment is a chain of graph edges (hub poses make the chain seamless), placed in the patch frame
 and tied to its partners by interpersonal constraints measured from the placement:
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..motion.clip import rotate_xz
+from ..motion.planar import rotate_xz
 from .patch import Constraint, Fragment, Patch, PatchLibrary, single_character_patches
 
 __all__ = ["chain_edges", "meet_patch", "rows_patch", "pass_patch", "synthetic_library"]

@@ -1,5 +1,5 @@
-"""A tiled interaction zone: interactive tiling (paper 003, section 5.3) as a system of the
-runtime :class:`~runtime.world.World` tick.
+"""A tiled interaction zone: interactive tiling (Kim, Hwang, Hyun and Lee 2012, section 5.3) as a
+system of the runtime :class:`~runtime.world.World` tick.
 
 A zone is a rectangle of the world where small teams of characters are animated by stitching
 motion patches (:class:`~runtime.tiling.interactive.InteractiveTiling`): each team has a list of
@@ -21,8 +21,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..motion.planar import rotate_xz_scalar
+from ..pose import PoseState
+from .check import check_tiling
 from .interactive import InteractiveTiling
-from .tiler import Obstacle, PreparedLibrary
+from .prepared import PreparedLibrary
+from .region import Obstacle
 
 __all__ = ["TeamSpec", "TilingZone", "environment_obstacles"]
 
@@ -84,9 +88,8 @@ class TilingZone:
             for k in range(team.count):
                 r, c = divmod(k, side)
                 off = np.array([1.5 * (c - 0.5 * (side - 1)), 1.5 * (r - 0.5 * (rows - 1))])
-                ca, sa = math.cos(team.heading), math.sin(team.heading)
                 # the grid is laid out across the heading (x lateral, z forward)
-                pos = np.asarray(team.start, float) + np.array([ca * off[0] + sa * off[1], -sa * off[0] + ca * off[1]])
+                pos = np.asarray(team.start, float) + rotate_xz_scalar(off, team.heading)
                 if not (x0 < pos[0] < x1 and z0 < pos[1] < z1):
                     raise ValueError(f"tiling zone {name!r}: team {ti} character {k} starts at "
                                      f"({pos[0]:.2f}, {pos[1]:.2f}), outside the zone {self.bounds}")
@@ -134,7 +137,6 @@ class TilingZone:
     def pose_state(self, frame: int | None = None):
         """(frames_a, frames_b, blend, root) of every character at tiling clock ``frame``
         (default: now) into the patch library's pose tables (a ``runtime.pose.PoseState``)."""
-        from ..pose import PoseState
         a, b, w, root = self.tiling.pose_refs(frame)
         return PoseState(a.copy(), b.copy(), w.copy(), root.copy())
 
@@ -150,5 +152,4 @@ class TilingZone:
     def check(self):
         """The independent checker's report (:func:`runtime.tiling.check.check_tiling`) of
         everything tiled so far."""
-        from .check import check_tiling
         return check_tiling(self.tiling.result())
