@@ -230,7 +230,7 @@ def test_failed_write_leaves_previous_file_intact(tmp_path, monkeypatch):
             f.write(before[: len(before) // 3])      # a partial file, then the writer dies
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(usd_stage, "_export_layer", crash_midway)
+    monkeypatch.setattr(usd_stage, "export_layer", crash_midway)
     with pytest.raises(RuntimeError, match="disk on fire"):
         write_clip_stage(path, _clip(seed=2))
     assert path.read_bytes() == before
