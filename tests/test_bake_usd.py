@@ -1,4 +1,4 @@
-"""The bake (issue 6, crowds out): characters carry a skinned capsule-limb body that follows
+"""The bake (crowds out to USD): characters carry a skinned capsule-limb body that follows
 their joints, the world's geometry is referenced, and the stage validates."""
 import numpy as np
 from pxr import Usd, UsdGeom, UsdSkel, Vt

@@ -1,5 +1,5 @@
-"""Motion-graph library previews as USD (issue 3 point 5, issue 6 point 3): validation, the bound
-all-clips animation against the runtime's FK, per-clip prims, layout, attribute round trip."""
+"""Motion-graph library previews as USD: validation, the bound all-clips animation against the
+runtime's FK, per-clip prims, layout, attribute round trip."""
 from pathlib import Path
 
 import numpy as np
