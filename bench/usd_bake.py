@@ -1,4 +1,4 @@
-"""USD bake throughput (issue 6): N characters x F frames, each character its own data.
+"""USD bake throughput: N characters x F frames, each character its own data.
 
 Writes one SkelRoot per character (Skeleton + SkelAnimation + body + crowdweave attributes)
 three ways in the same run and prints seconds (authoring incl. pose evaluation, saving,
@@ -143,10 +143,10 @@ def main(argv=None):
     graph = load_library("default")
     tracks = make_tracks(graph, a.characters, a.frames)
     # what the runtime's pose evaluation alone costs (every method below includes it)
-    from usd_io.crowd import POSE_BATCH_FRAMES, SkelValues, _batches, pose_arrays
+    from usd_io.timesamples import POSE_BATCH_FRAMES, SkelValues, batches, pose_arrays
     sv = SkelValues.of(graph.skeleton)
     c0, t0 = _cpu(), time.perf_counter()
-    for batch in _batches(list(tracks.items()), POSE_BATCH_FRAMES):
+    for batch in batches(list(tracks.items()), POSE_BATCH_FRAMES):
         pose_arrays(graph, [tr for _, tr in batch], sv)
     t_pose, c_pose = time.perf_counter() - t0, _cpu() - c0
     rows = []

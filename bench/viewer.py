@@ -38,6 +38,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def start_xvfb():
+    """Start a private Xvfb and point DISPLAY at it; returns the process and the -displayfd
+    pipe, which must stay open while Xvfb runs (closing it early is fatal to it)."""
     exe = shutil.which("Xvfb")
     if exe is None:
         raise SystemExit("Xvfb is not installed (apt-get install -y xvfb), or use --mode headless")
@@ -50,8 +52,7 @@ def start_xvfb():
         proc.kill()
         raise SystemExit("Xvfb did not start")
     os.environ["DISPLAY"] = ":" + line
-    proc._displayfd = r        # keep the pipe open while Xvfb runs (closing it early is fatal to it)
-    return proc
+    return proc, r
 
 
 def _read_line(fd, timeout):
@@ -86,14 +87,14 @@ def main(argv=None):
     ap.add_argument("--baseline-frames", type=int, default=3)
     ap.add_argument("--screenshot-dir", default=None, help="save the last frame of each run here")
     args = ap.parse_args(argv)
-    xvfb = start_xvfb() if args.mode == "xvfb" else None
+    xvfb, display_fd = start_xvfb() if args.mode == "xvfb" else (None, None)
     try:
         run(args)
     finally:
         if xvfb is not None:
             xvfb.terminate()
             xvfb.wait(10)
-            os.close(xvfb._displayfd)
+            os.close(display_fd)
 
 
 def run(args):
@@ -122,7 +123,7 @@ def run(args):
             viewer.run(max_frames=1)
             frames += 1
             for k in times:
-                times[k].append(viewer._frame_ms.get(k, 0.0))
+                times[k].append(viewer.frame_ms.get(k, 0.0))
         elapsed = time.perf_counter() - t0
         fps = frames / elapsed
         # the same scene paused: the viewer's own cost (the stand-in scene's ticks excluded)

@@ -1,4 +1,4 @@
-"""The bake (issue 6, crowds out): characters carry a skinned capsule-limb body that follows
+"""The bake (crowds out to USD): characters carry a skinned capsule-limb body that follows
 their joints, the world's geometry is referenced, and the stage validates."""
 import numpy as np
 from pxr import Usd, UsdGeom, UsdSkel, Vt
@@ -212,7 +212,7 @@ def test_failed_clip_layer_leaves_nothing_half_written(crowd_tracks, default_gra
     out = tmp_path / "crowd.usdc"
     _bake(crowd_tracks, default_graph, out, clips_per=2, workers=1)
     before = {p: (tmp_path / p).read_bytes() for p in _listing(tmp_path) if (tmp_path / p).is_file()}
-    real_export = usd_clips._export
+    real_export = usd_clips.export_with_digest
     calls = []
 
     def crash_on_second(layer, path):
@@ -221,13 +221,13 @@ def test_failed_clip_layer_leaves_nothing_half_written(crowd_tracks, default_gra
             path.write_bytes(b"PXR-USDC half")
             raise OSError("disk full")
         return real_export(layer, path)
-    monkeypatch.setattr(usd_clips, "_export", crash_on_second)
+    monkeypatch.setattr(usd_clips, "export_with_digest", crash_on_second)
     changed = {k: Track(t.frames_a, t.frames_b, t.frames_t, t.root + [0.5, 0.0, 0.0], t.start_frame)
                for k, t in crowd_tracks.items()}
     with pytest.raises(OSError, match="disk full"):
         _bake(changed, default_graph, out, clips_per=2, workers=1)
     assert len(calls) == 2
-    monkeypatch.setattr(usd_clips, "_export", real_export)
+    monkeypatch.setattr(usd_clips, "export_with_digest", real_export)
     bad = dict(changed)
     bad["d"] = Track(bad["d"].frames_a + 10 ** 7, bad["d"].frames_b + 10 ** 7, bad["d"].frames_t, bad["d"].root, 0)
     with pytest.raises(ValueError, match="character 'd': track frames_a reaches frame"):
@@ -248,7 +248,7 @@ def test_failed_stage_save_keeps_the_previous_bake(crowd_tracks, default_graph, 
         with open(path, "wb") as f:
             f.write(b"PXR-USDC half")
         raise usd_stage.StageError(path, "USD export failed: disk full")
-    monkeypatch.setattr(usd_stage, "_export_layer", crash_midway)
+    monkeypatch.setattr(usd_stage, "export_layer", crash_midway)
     changed = {k: Track(t.frames_a, t.frames_b, t.frames_t, t.root + [0.5, 0.0, 0.0], t.start_frame)
                for k, t in crowd_tracks.items()}
     for kw in ({}, {"clips_per": 2, "workers": 1}):

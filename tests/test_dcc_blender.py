@@ -1,4 +1,4 @@
-"""Blender as a real DCC client of baked crowds (issue 6): Blender's own USD importer
+"""Blender as a real DCC client of baked crowds: Blender's own USD importer
 (``bpy.ops.wm.usd_import``, bpy 4.2.0 from the package registry) reads a baked stage, single
 layer and value clips: one armature per character, the scene frame range is the stage's
 start/end, and joint world positions in Blender equal the runtime's forward kinematics within

@@ -1,5 +1,5 @@
 """Flocks as a system of the World's tick, drawn by the viewer protocol, baked as USD
-PointInstancers (issue 7, point 5)."""
+PointInstancers."""
 import numpy as np
 import pytest
 from pxr import Usd, UsdGeom

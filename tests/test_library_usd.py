@@ -1,5 +1,5 @@
-"""Motion-graph library previews as USD (issue 3 point 5, issue 6 point 3): validation, the bound
-all-clips animation against the runtime's FK, per-clip prims, layout, attribute round trip."""
+"""Motion-graph library previews as USD: validation, the bound all-clips animation against the
+runtime's FK, per-clip prims, layout, attribute round trip."""
 from pathlib import Path
 
 import numpy as np
@@ -162,7 +162,7 @@ def test_preview_is_deterministic_and_writes_atomically(small_graph, tmp_path, m
         with open(path, "wb") as f:
             f.write(b"#usda 1.0\n(half")
         raise StageError(path, "simulated failure")
-    monkeypatch.setattr(stage_mod, "_export_layer", boom)
+    monkeypatch.setattr(stage_mod, "export_layer", boom)
     with pytest.raises(StageError):
         write_library_preview(a, g)
     assert a.read_bytes() == before

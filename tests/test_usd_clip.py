@@ -1,4 +1,4 @@
-"""Clips to USD (issue 2, point 5): UsdSkel stages whose joint world transforms, computed by
+"""Clips to USD: UsdSkel stages whose joint world transforms, computed by
 pxr.UsdSkel itself, equal the runtime's forward kinematics; validation; atomic writes; the
 ``crowdweave convert`` command."""
 import importlib.util
@@ -17,7 +17,7 @@ from usd_io.stage import StageError
 from usd_io.validate import errors, validate_stage
 from conftest import random_clip
 
-TOL = 1e-4  # metres (issue 2 acceptance)
+TOL = 1e-4  # metres: USD joint positions against the runtime's FK
 
 FAMILY_FILES = {
     "A": "cmu_02_01_walk.bvh",
@@ -230,7 +230,7 @@ def test_failed_write_leaves_previous_file_intact(tmp_path, monkeypatch):
             f.write(before[: len(before) // 3])      # a partial file, then the writer dies
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(usd_stage, "_export_layer", crash_midway)
+    monkeypatch.setattr(usd_stage, "export_layer", crash_midway)
     with pytest.raises(RuntimeError, match="disk on fire"):
         write_clip_stage(path, _clip(seed=2))
     assert path.read_bytes() == before

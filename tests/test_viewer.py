@@ -236,6 +236,7 @@ def test_camera_projection_and_ground_picking_round_trip():
 def test_runtime_imports_no_gl_and_mode_conflicts_are_reported():
     code = r"""
 import sys, runtime, runtime.pose, runtime.viewer, runtime.viewer.camera, runtime.viewer.scene, runtime.viewer.meshes
+import runtime.viewer.figures, runtime.viewer.lighting
 assert not any(m.startswith("pyglet") for m in sys.modules), sorted(m for m in sys.modules if m.startswith("pyglet"))
 from runtime.viewer import headless
 assert headless.current_mode() is None
@@ -256,7 +257,8 @@ except headless.ModeError as e:
 
 def test_figure_style_meshes_and_polygon_triangulation(default_graph):
     from runtime.motion.skeleton import Skeleton
-    from runtime.viewer.meshes import FigureStyle, capsule_mesh, environment_mesh, triangulate
+    from runtime.viewer.figures import FigureStyle
+    from runtime.viewer.meshes import capsule_mesh, environment_mesh, triangulate
     from runtime.crowd.environment import Environment, Marker
     sk = default_graph.skeleton
     st = FigureStyle.for_skeleton(sk)

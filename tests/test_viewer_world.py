@@ -1,4 +1,4 @@
-"""Viewer + runtime World (issue 5): a real window under Xvfb (the test starts and stops its
+"""Viewer + runtime World: a real window under Xvfb (the test starts and stops its
 own server) and headless EGL.
 
 Each case runs the viewer on a :class:`runtime.World` in a subprocess (pyglet chooses its

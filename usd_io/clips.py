@@ -27,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import multiprocessing
 import os
+import pickle
 import re
 import shutil
 import tempfile
@@ -36,8 +37,10 @@ from pathlib import Path
 from pxr import Gf, Sdf, Vt
 
 from .stage import StageError
+from .timesamples import SkelValues, author_tracks, define_animated_specs
 
-__all__ = ["write_clip_layers", "ClipLayers", "remove_unused_clip_dirs", "clip_dir_pattern", "MANIFEST"]
+__all__ = ["write_clip_layers", "ClipLayers", "remove_unused_clip_dirs", "clip_dir_pattern", "export_with_digest",
+           "MANIFEST"]
 
 MANIFEST = "manifest.usda"
 GRAPH_FILE = ".graph.pickle"     # the library, for the workers (removed before the rename)
@@ -54,8 +57,9 @@ def _default_mode(mode: int) -> int:
     return mode & ~um
 
 
-def _export(layer: Sdf.Layer, path: Path) -> str:
-    """Export, fsync, and return the file's sha256."""
+def export_with_digest(layer: Sdf.Layer, path: Path) -> str:
+    """Export ``layer`` to ``path``, fsync it, and return the file's sha256 (hex); StageError
+    when the export fails."""
     if not layer.Export(str(path)):
         raise StageError(path, "USD export failed")
     h = hashlib.sha256()
@@ -68,19 +72,11 @@ def _export(layer: Sdf.Layer, path: Path) -> str:
 
 def _chunk_layer(graph, sv, fps: float, items) -> Sdf.Layer:
     """A clip layer holding the time samples of ``items`` ((SkelRoot path, Track), ...)."""
-    from .crowd import POSE_BATCH_FRAMES, _batches, author_samples, define_animated_specs, pose_arrays, track_times
     layer = Sdf.Layer.CreateAnonymous("chunk.usdc")
     layer.timeCodesPerSecond = float(fps)
     layer.framesPerSecond = float(fps)
     with Sdf.ChangeBlock():
-        for batch in _batches(items, POSE_BATCH_FRAMES):
-            trans, quats, rootv = pose_arrays(graph, [tr for _, tr in batch], sv)
-            k = 0
-            for path, tr in batch:
-                specs = define_animated_specs(layer, Sdf.Path(path))
-                f = len(tr)
-                author_samples(specs, track_times(tr), trans[k:k + f], quats[k:k + f], rootv[k:k + f])
-                k += f
+        author_tracks(layer, items, graph, sv, lambda path, tr: define_animated_specs(layer, Sdf.Path(path)))
     return layer
 
 
@@ -89,9 +85,6 @@ _W: dict = {}
 
 
 def _init_worker(graph_file, fps):
-    import pickle
-
-    from .crowd import SkelValues
     with open(graph_file, "rb") as f:
         graph = pickle.load(f)
     _W.update(graph=graph, fps=fps, sv=SkelValues.of(graph.skeleton))
@@ -100,7 +93,7 @@ def _init_worker(graph_file, fps):
 def _write_chunk(args):
     directory, name, items = args
     layer = _chunk_layer(_W["graph"], _W["sv"], _W["fps"], items)
-    return name, _export(layer, Path(directory) / name)
+    return name, export_with_digest(layer, Path(directory) / name)
 
 
 class ClipLayers:
@@ -129,7 +122,6 @@ class ClipLayers:
             # The library goes to the workers as a file: a large argument would block this process
             # until each worker has started up and read it. spawn, not fork: the parent has USD (and
             # its thread pool) loaded. A worker that dies raises BrokenProcessPool instead of hanging.
-            import pickle
             graph_file = self.tmp / GRAPH_FILE
             with open(graph_file, "wb") as f:
                 pickle.dump(graph, f, protocol=pickle.HIGHEST_PROTOCOL)
@@ -140,7 +132,6 @@ class ClipLayers:
     def wait(self) -> str:
         """Wait for the chunk layers, write the manifest, rename the directory into place; returns
         its name (relative to the stage's directory)."""
-        from .crowd import SkelValues, define_animated_specs
         if self._pool is not None:
             digests = [f.result() for f in self._pending]
             self._pool.shutdown()
@@ -148,14 +139,15 @@ class ClipLayers:
             (self.tmp / GRAPH_FILE).unlink()
         else:
             sv = SkelValues.of(self.graph.skeleton)
-            digests = [(n, _export(_chunk_layer(self.graph, sv, self.fps, c), self.tmp / n)) for n, c in self.tasks]
+            digests = [(n, export_with_digest(_chunk_layer(self.graph, sv, self.fps, c), self.tmp / n))
+                       for n, c in self.tasks]
         manifest = Sdf.Layer.CreateAnonymous("manifest.usda")
         manifest.timeCodesPerSecond = self.fps
         manifest.framesPerSecond = self.fps
         with Sdf.ChangeBlock():
             for p in self.chunk_of:
                 define_animated_specs(manifest, Sdf.Path(p))
-        digests.append((MANIFEST, _export(manifest, self.tmp / MANIFEST)))
+        digests.append((MANIFEST, export_with_digest(manifest, self.tmp / MANIFEST)))
         h = hashlib.sha256("".join(f"{n}:{d}\n" for n, d in sorted(digests)).encode())
         self.dir_name = f"{self.out.name}.clips-{h.hexdigest()[:16]}"
         final = self.out.parent / self.dir_name
@@ -209,8 +201,7 @@ def remove_unused_clip_dirs(out_path, keep: str | None = None) -> list[Path]:
     one the saved stage names in its customLayerData ``crowdweave:clipDirectory``); returns them."""
     out = Path(out_path)
     if keep is None:
-        from pxr import Sdf as _Sdf
-        layer = _Sdf.Layer.OpenAsAnonymous(str(out), metadataOnly=True) if out.is_file() else None
+        layer = Sdf.Layer.OpenAsAnonymous(str(out), metadataOnly=True) if out.is_file() else None
         keep = (layer.customLayerData.get("crowdweave:clipDirectory") if layer else None) or ""
     pat = clip_dir_pattern(out)
     removed = []

@@ -17,36 +17,34 @@ The stage's customData holds the scenario name and the library path, so a checke
 a bake back (:func:`read_tracks`) without the planner. Poses come from the runtime
 (:func:`runtime.crowd.tracks.evaluate_poses`); this module only moves arrays into USD.
 
-Speed: every character is authored at the Sdf level (prim and attribute specs, one
-``SetTimeSample`` per animated attribute per frame, values converted from numpy arrays built
-for many characters at once) inside one ``Sdf.ChangeBlock``; the per-call cost of
-``SetTimeSample`` from Python is then what is left. For very large crowds
-``build_crowd_stage(..., clips_per=N, out_path=...)`` moves the time samples into value-clip
-layers of N characters each, written by parallel worker processes (:mod:`usd_io.clips`); the
-top stage then holds the prims, the frame arrays and the clip metadata.
+Every character is authored at the Sdf level inside one ``Sdf.ChangeBlock``
+(:mod:`usd_io.timesamples`: prim and attribute specs, one ``SetTimeSample`` per animated
+attribute per frame, values converted from numpy arrays built for many characters at once).
+For very large crowds ``build_crowd_stage(..., clips_per=N, out_path=...)`` moves the time
+samples into value-clip layers of N characters each, written by parallel worker processes
+(:mod:`usd_io.clips`); the top stage then holds the prims, the frame arrays and the clip
+metadata.
 """
 from __future__ import annotations
 
 import os
-from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
-from pxr import Gf, Sdf, UsdGeom, Vt
+from pxr import Gf, Sdf, UsdGeom, UsdSkel, Vt
 
 from runtime.crowd.tracks import Track
-from runtime.motion import quat
-from runtime.motion.fk import forward_kinematics
+from runtime.motion.body import body_mesh
 
-from .skel import _translation_matrices, joint_paths
+from .clips import remove_unused_clip_dirs, write_clip_layers
 from .stage import check_usd_path, new_stage, open_stage, save_stage, set_default_prim, valid_prim_name
+from .timesamples import SkelValues, attribute_spec, author_tracks, prim_spec, relationship_spec
 
 __all__ = ["build_crowd_stage", "write_crowd_stage", "save_crowd_stage", "read_tracks", "write_props",
            "character_path", "CHARACTERS"]
 
 CHARACTERS = "/World/Characters"
 BODY_PROTOTYPE = "/Prototypes/Body"
-POSE_BATCH_FRAMES = 3000       # frames of poses evaluated per vectorized pass (small batches stay in cache)
+_T = Sdf.ValueTypeNames
 
 
 def character_path(name: str) -> Sdf.Path:
@@ -56,9 +54,6 @@ def character_path(name: str) -> Sdf.Path:
 
 def _define_body_prototype(stage, skeleton):
     """The skinned capsule-limb body every character references (a class prim: not drawn)."""
-    from pxr import UsdSkel
-
-    from runtime.motion.body import body_mesh
     pts, counts, idx, joints = body_mesh(skeleton)
     stage.CreateClassPrim("/Prototypes")
     mesh = UsdGeom.Mesh.Define(stage, BODY_PROTOTYPE)
@@ -76,133 +71,37 @@ def _define_body_prototype(stage, skeleton):
 
 
 # -- Sdf-level authoring ------------------------------------------------------------------------
-@dataclass(frozen=True)
-class SkelValues:
-    """The Vt values every character of one skeleton shares (computed once per bake)."""
-    joints: Vt.TokenArray
-    names: Vt.TokenArray
-    rest: Vt.Matrix4dArray
-    bind: Vt.Matrix4dArray
-    scales: Vt.Vec3hArray
-    offsets: np.ndarray      # (J, 3) rest offsets: every non-root joint translation
-
-    @classmethod
-    def of(cls, skeleton) -> "SkelValues":
-        J = skeleton.num_joints
-        rest_world = forward_kinematics(skeleton, skeleton.offsets[0], quat.identity((J,)))[1]
-        return cls(Vt.TokenArray(joint_paths(skeleton)), Vt.TokenArray(list(skeleton.names)),
-                   _translation_matrices(skeleton.offsets), _translation_matrices(rest_world),
-                   Vt.Vec3hArray.FromNumpy(np.ones((J, 3), np.float16)),
-                   np.asarray(skeleton.offsets, dtype=np.float64))
-
-
-_T = Sdf.ValueTypeNames
-_SKEL_API = Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"])
-
-# the time-sampled attributes of a character: (prim path relative to the SkelRoot, attribute, type, custom)
-ANIMATED = (("Skel/Anim", "translations", _T.Float3Array, False),
-            ("Skel/Anim", "rotations", _T.QuatfArray, False),
-            ("", "crowdweave:root", _T.Double3, True))
-
-
-def _prim(layer, path, type_name: str | None, specifier=Sdf.SpecifierDef, api: bool = False):
-    spec = Sdf.CreatePrimInLayer(layer, path)
-    spec.specifier = specifier
-    if type_name:
-        spec.typeName = type_name
-    if api:
-        spec.SetInfo("apiSchemas", _SKEL_API)
-    return spec
-
-
-def _attr(prim_spec, name, type_name, value=None, *, uniform=False, custom=False):
-    a = Sdf.AttributeSpec(prim_spec, name, type_name,
-                          Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying, custom)
-    if value is not None:
-        a.default = value
-    return a
-
-
-def _rel(prim_spec, name, target: Sdf.Path):
-    r = Sdf.RelationshipSpec(prim_spec, name, False)
-    r.targetPathList.explicitItems = [target]
-
-
-def define_animated_specs(layer, root_path: Sdf.Path, specifier=Sdf.SpecifierOver) -> list:
-    """Only the attribute specs that carry time samples (translations, rotations,
-    crowdweave:root), on prims of ``specifier`` (``over`` for a value-clip layer or a manifest)."""
-    out = []
-    for rel, name, type_name, custom in ANIMATED:
-        prim_path = root_path.AppendPath(Sdf.Path(rel)) if rel else root_path
-        spec = layer.GetPrimAtPath(prim_path) or _prim(layer, prim_path, None, specifier)
-        out.append(_attr(spec, name, type_name, custom=custom))
-    return out
-
-
 def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Track, body: bool) -> list:
     """Author one character's prims (SkelRoot, Skeleton, SkelAnimation, Body reference) and its
     crowdweave attributes into ``layer`` through Sdf; the animated attributes are declared
     without values. Returns their AttributeSpecs (translations, rotations, crowdweave:root)."""
-    root = _prim(layer, root_path, "SkelRoot", api=True)
+    root = prim_spec(layer, root_path, "SkelRoot", api=True)
     skel_path = root_path.AppendChild("Skel")
     anim_path = skel_path.AppendChild("Anim")
-    _rel(root, "skel:skeleton", skel_path)
-    _attr(root, "crowdweave:startFrame", _T.Int, int(track.start_frame), custom=True)
-    _attr(root, "crowdweave:frameA", _T.IntArray, Vt.IntArray.FromNumpy(np.asarray(track.frames_a, np.int32)), custom=True)
-    _attr(root, "crowdweave:frameB", _T.IntArray, Vt.IntArray.FromNumpy(np.asarray(track.frames_b, np.int32)), custom=True)
-    _attr(root, "crowdweave:frameT", _T.FloatArray, Vt.FloatArray.FromNumpy(np.asarray(track.frames_t, np.float32)),
-          custom=True)
-    skel = _prim(layer, skel_path, "Skeleton", api=True)
-    _attr(skel, "joints", _T.TokenArray, sv.joints, uniform=True)
-    _attr(skel, "jointNames", _T.TokenArray, sv.names, uniform=True)
-    _attr(skel, "restTransforms", _T.Matrix4dArray, sv.rest, uniform=True)
-    _attr(skel, "bindTransforms", _T.Matrix4dArray, sv.bind, uniform=True)
-    _rel(skel, "skel:animationSource", anim_path)
-    anim = _prim(layer, anim_path, "SkelAnimation")
-    _attr(anim, "joints", _T.TokenArray, sv.joints, uniform=True)
-    _attr(anim, "scales", _T.Half3Array, sv.scales)
-    specs = [_attr(anim, "translations", _T.Float3Array), _attr(anim, "rotations", _T.QuatfArray),
-             _attr(root, "crowdweave:root", _T.Double3, custom=True)]
+    relationship_spec(root, "skel:skeleton", skel_path)
+    attribute_spec(root, "crowdweave:startFrame", _T.Int, int(track.start_frame), custom=True)
+    attribute_spec(root, "crowdweave:frameA", _T.IntArray, Vt.IntArray.FromNumpy(np.asarray(track.frames_a, np.int32)),
+                   custom=True)
+    attribute_spec(root, "crowdweave:frameB", _T.IntArray, Vt.IntArray.FromNumpy(np.asarray(track.frames_b, np.int32)),
+                   custom=True)
+    attribute_spec(root, "crowdweave:frameT", _T.FloatArray,
+                   Vt.FloatArray.FromNumpy(np.asarray(track.frames_t, np.float32)), custom=True)
+    skel = prim_spec(layer, skel_path, "Skeleton", api=True)
+    attribute_spec(skel, "joints", _T.TokenArray, sv.joints, uniform=True)
+    attribute_spec(skel, "jointNames", _T.TokenArray, sv.names, uniform=True)
+    attribute_spec(skel, "restTransforms", _T.Matrix4dArray, sv.rest, uniform=True)
+    attribute_spec(skel, "bindTransforms", _T.Matrix4dArray, sv.bind, uniform=True)
+    relationship_spec(skel, "skel:animationSource", anim_path)
+    anim = prim_spec(layer, anim_path, "SkelAnimation")
+    attribute_spec(anim, "joints", _T.TokenArray, sv.joints, uniform=True)
+    attribute_spec(anim, "scales", _T.Half3Array, sv.scales)
+    specs = [attribute_spec(anim, "translations", _T.Float3Array),
+             attribute_spec(anim, "rotations", _T.QuatfArray),
+             attribute_spec(root, "crowdweave:root", _T.Double3, custom=True)]
     if body:
-        b = _prim(layer, root_path.AppendChild("Body"), None)
+        b = prim_spec(layer, root_path.AppendChild("Body"), None)
         b.referenceList.Prepend(Sdf.Reference(primPath=BODY_PROTOTYPE))
     return specs
-
-
-def pose_arrays(graph, tracks: list[Track], sv: SkelValues):
-    """SkelAnimation arrays of several tracks at once, concatenated over their frames:
-    translations (M, J, 3) float32 (root: world position), rotations (M, J, 4) float32 in the
-    x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg)."""
-    from runtime.pose import skel_arrays
-    return skel_arrays(graph, np.concatenate([t.frames_a for t in tracks]), np.concatenate([t.frames_b for t in tracks]),
-                       np.concatenate([t.frames_t for t in tracks]), np.concatenate([t.root for t in tracks]))
-
-
-def author_samples(specs: list, times: list[float], trans, quats, rootv) -> None:
-    """One ``SetTimeSample`` per attribute spec (translations, rotations, crowdweave:root) per
-    frame; call inside an ``Sdf.ChangeBlock``."""
-    st, sr, sc = specs
-    # map() drives the calls from C: no Python loop body per sample
-    deque(map(st.SetTimeSample, times, map(Vt.Vec3fArray.FromNumpy, trans)), 0)
-    deque(map(sr.SetTimeSample, times, map(Vt.QuatfArray.FromNumpy, quats)), 0)
-    deque(map(sc.SetTimeSample, times, Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(rootv))), 0)
-
-
-def track_times(track: Track) -> list[float]:
-    return (float(track.start_frame) + np.arange(len(track), dtype=np.float64)).tolist()
-
-
-def _batches(items, frames: int):
-    """Consecutive groups of (name, track) with about ``frames`` frames each."""
-    batch, n = [], 0
-    for it in items:
-        batch.append(it)
-        n += len(it[1])
-        if n >= frames:
-            yield batch
-            batch, n = [], 0
-    if batch:
-        yield batch
 
 
 # -- the stage ------------------------------------------------------------------------------------
@@ -258,16 +157,9 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
 
     if clips_per is None:
         with Sdf.ChangeBlock():
-            for batch in _batches(items, POSE_BATCH_FRAMES):
-                trans, quats, rootv = pose_arrays(graph, [tr for _, tr in batch], sv)
-                k = 0
-                for path, tr in batch:
-                    specs = define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body)
-                    f = len(tr)
-                    author_samples(specs, track_times(tr), trans[k:k + f], quats[k:k + f], rootv[k:k + f])
-                    k += f
+            author_tracks(layer, items, graph, sv,
+                          lambda path, tr: define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body))
     else:
-        from .clips import write_clip_layers
         with write_clip_layers(out_path, items, graph, fps, int(clips_per), workers) as clips:
             # the workers write the clip layers while this process authors the prims
             with Sdf.ChangeBlock():
@@ -290,7 +182,6 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
 def save_crowd_stage(stage, path):
     """Save a baked stage atomically (:func:`usd_io.stage.save_stage`); afterwards remove value-clip
     directories that earlier bakes to the same path left and this stage no longer uses."""
-    from .clips import remove_unused_clip_dirs
     p = save_stage(stage, path)
     remove_unused_clip_dirs(p, keep=stage.GetRootLayer().customLayerData.get("crowdweave:clipDirectory", ""))
     return p

@@ -1,4 +1,4 @@
-"""Flocks as USD: one PointInstancer per flock (issue 7, point 5).
+"""Flocks as USD: one PointInstancer per flock.
 
 Layout::
 

@@ -1,7 +1,7 @@
 """Motion-graph libraries as USD previews, so an animator can scrub a library in a DCC tool.
 
-Issue 6 point 3 ("Libraries out") and issue 3 point 5 (``lib.usda`` beside ``lib.cwpack``).
-The runtime loads the pack; this stage is for looking at, and for tools that want the graph's
+``crowdweave author graph`` writes one (``lib.usda``) beside the pack (``lib.cwpack``). The
+runtime loads the pack; this stage is for looking at, and for tools that want the graph's
 structure without crowdweave.
 
 Layout (:func:`build_library_stage`)::

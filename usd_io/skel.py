@@ -21,8 +21,8 @@ Conventions (ARCHITECTURE.md):
   real-first in its constructor, but its memory, and so every numpy view, is x, y, z, w).
 
 Time samples are authored at the Sdf level inside one ``Sdf.ChangeBlock`` (one
-``SetTimeSample`` per attribute per frame, arrays built with numpy), which is about twice
-as fast as ``Usd.Attribute.Set`` for large bakes (ENVIRONMENT.md, "USD").
+``SetTimeSample`` per attribute per frame, arrays built with numpy), not with
+``Usd.Attribute.Set``, which costs more per sample.
 
 This module moves data only: forward kinematics, resampling and retargeting happen in the
 runtime before anything reaches it.
@@ -45,7 +45,7 @@ from .stage import (StageError, check_usd_path, new_stage, open_stage, save_stag
 __all__ = [
     "joint_paths", "define_skel_root", "define_skeleton", "clip_joint_arrays", "write_animation",
     "bind_animation", "bind_skeleton", "build_clip_stage", "write_clip_stage", "ClipStage", "joint_world_positions",
-    "read_skeleton", "to_quatf_array",
+    "read_skeleton", "to_quatf_array", "translation_matrices", "rest_and_bind_transforms",
 ]
 
 
@@ -56,7 +56,7 @@ def to_quatf_array(q_wxyz: np.ndarray) -> Vt.QuatfArray:
     return Vt.QuatfArray.FromNumpy(np.ascontiguousarray(q[:, [1, 2, 3, 0]]))
 
 
-def _translation_matrices(t: np.ndarray) -> Vt.Matrix4dArray:
+def translation_matrices(t: np.ndarray) -> Vt.Matrix4dArray:
     """(J, 3) translations -> VtMatrix4dArray of pure translations (USD is row-vector: row 3)."""
     m = np.tile(np.eye(4), (len(t), 1, 1))
     m[:, 3, :3] = t
@@ -103,11 +103,18 @@ def define_skeleton(stage: Usd.Stage, path, skeleton: Skeleton, *, paths: list[s
     UsdSkel.BindingAPI.Apply(skel.GetPrim())
     skel.CreateJointsAttr(Vt.TokenArray(paths))
     skel.CreateJointNamesAttr(Vt.TokenArray(list(skeleton.names)))
+    rest, bind = rest_and_bind_transforms(skeleton)
+    skel.CreateRestTransformsAttr(rest)
+    skel.CreateBindTransformsAttr(bind)
+    return skel
+
+
+def rest_and_bind_transforms(skeleton: Skeleton) -> tuple[Vt.Matrix4dArray, Vt.Matrix4dArray]:
+    """A Skeleton prim's ``restTransforms`` (local: the joint offsets) and ``bindTransforms``
+    (world: forward kinematics of the rest pose), both pure translations."""
     J = skeleton.num_joints
     rest_world = forward_kinematics(skeleton, skeleton.offsets[0], quat.identity((J,)))[1]
-    skel.CreateRestTransformsAttr(_translation_matrices(skeleton.offsets))
-    skel.CreateBindTransformsAttr(_translation_matrices(rest_world))
-    return skel
+    return translation_matrices(skeleton.offsets), translation_matrices(rest_world)
 
 
 def read_skeleton(stage_or_path, path) -> Skeleton:

@@ -21,7 +21,7 @@ from runtime.assets import AssetError, atomic_path
 
 __all__ = [
     "USD_EXTENSIONS", "StageError", "check_usd_path", "new_stage", "set_time_range",
-    "set_default_prim", "open_stage", "save_stage", "save_layer", "valid_prim_name",
+    "set_default_prim", "open_stage", "save_stage", "save_layer", "export_layer", "valid_prim_name",
 ]
 
 USD_EXTENSIONS = (".usda", ".usdc", ".usd")
@@ -95,8 +95,9 @@ def open_stage(stage_or_path) -> Usd.Stage:
     return stage
 
 
-def _export_layer(layer: Sdf.Layer, path: str) -> None:
-    """Write ``layer`` to ``path`` (format from the extension). Separate so tests can make it fail."""
+def export_layer(layer: Sdf.Layer, path: str) -> None:
+    """Write ``layer`` to ``path`` (format from the extension), not atomically: StageError on
+    failure. :func:`save_layer` calls it on a temporary file (tests replace it to fail midway)."""
     try:
         ok = layer.Export(path)
     except Tf.ErrorException as e:
@@ -112,7 +113,7 @@ def save_layer(layer: Sdf.Layer, path) -> Path:
     """
     p = check_usd_path(path)
     with atomic_path(p) as tmp:
-        _export_layer(layer, tmp)
+        export_layer(layer, tmp)
     return p
 
 

@@ -19,8 +19,7 @@ project checks here catch that and related binding mistakes:
   ``skel:animationSource`` a SkelAnimation; every joint the bound animation lists exists in
   the Skeleton; joints the animation leaves out can fall back to a rest pose.
 
-More checks register with :func:`register_check` (later issues add theirs for baked crowds
-and world stages).
+More checks register with :func:`register_check`.
 """
 from __future__ import annotations
 

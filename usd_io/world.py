@@ -1,4 +1,4 @@
-"""Reading world stages: obstacles and markers for crowd synthesis (issue 4 point 1, issue 6 point 1).
+"""Reading world stages: obstacles and markers for crowd synthesis.
 
 World-stage conventions
 -----------------------
@@ -91,6 +91,15 @@ class WorldIssue:
     path: str
     reason: str
     error: bool = True
+
+
+# round gprims, in the order they are tested: (schema, footprint function, bottom radius
+# attribute, top radius attribute; None = 0, a cone's apex towards +axis)
+_ROUND_GPRIMS = ((UsdGeom.Cylinder, footprint_cylinder, "radius", "radius"),
+                 (UsdGeom.Cylinder_1, footprint_cylinder, "radiusBottom", "radiusTop"),
+                 (UsdGeom.Cone, footprint_cylinder, "radius", None),
+                 (UsdGeom.Capsule, footprint_capsule, "radius", "radius"),
+                 (UsdGeom.Capsule_1, footprint_capsule, "radiusBottom", "radiusTop"))
 
 
 def _open(path) -> Usd.Stage:
@@ -189,20 +198,11 @@ class _Reader:
             return footprint_cube(T, self.get(prim, "size"))
         if prim.IsA(UsdGeom.Sphere):
             return footprint_sphere(T, self.get(prim, "radius"))
-        if prim.IsA(UsdGeom.Cylinder):
-            r = self.get(prim, "radius")
-            return footprint_cylinder(T, r, r, self.get(prim, "height"), self.get(prim, "axis"))
-        if prim.IsA(UsdGeom.Cylinder_1):
-            return footprint_cylinder(T, self.get(prim, "radiusBottom"), self.get(prim, "radiusTop"),
-                                      self.get(prim, "height"), self.get(prim, "axis"))
-        if prim.IsA(UsdGeom.Cone):  # apex towards +axis
-            return footprint_cylinder(T, self.get(prim, "radius"), 0.0, self.get(prim, "height"), self.get(prim, "axis"))
-        if prim.IsA(UsdGeom.Capsule):
-            r = self.get(prim, "radius")
-            return footprint_capsule(T, r, r, self.get(prim, "height"), self.get(prim, "axis"))
-        if prim.IsA(UsdGeom.Capsule_1):
-            return footprint_capsule(T, self.get(prim, "radiusBottom"), self.get(prim, "radiusTop"),
-                                     self.get(prim, "height"), self.get(prim, "axis"))
+        for schema, footprint, bottom, top in _ROUND_GPRIMS:
+            if prim.IsA(schema):
+                r0 = self.get(prim, bottom)
+                r1 = r0 if top == bottom else (self.get(prim, top) if top else 0.0)
+                return footprint(T, r0, r1, self.get(prim, "height"), self.get(prim, "axis"))
         if prim.IsA(UsdGeom.Mesh):
             pts = UsdGeom.Mesh(prim).GetPointsAttr().Get(self.time)
             if pts is None or len(pts) == 0:
@@ -387,7 +387,6 @@ def read_world(path) -> Environment:
 
 def read_world_units(path):
     """(metersPerUnit, upAxis) of a world stage, as authored (defaults 1.0 and "Y")."""
-    from pxr import Usd
     st = Usd.Stage.Open(str(path))
     mpu = UsdGeom.GetStageMetersPerUnit(st) if st.HasAuthoredMetadata("metersPerUnit") else 1.0
     up = UsdGeom.GetStageUpAxis(st) if st.HasAuthoredMetadata("upAxis") else "Y"

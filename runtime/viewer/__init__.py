@@ -1,5 +1,4 @@
-"""The crowdweave viewer (issue 5, point 4): a pyglet window or headless EGL renderer for any
-*scene source*.
+"""The crowdweave viewer: a pyglet window or headless EGL renderer for any scene.
 
 pyglet's GL modules are imported only inside this package, and lazily: importing
 ``runtime.viewer`` loads no GL (pyglet's window backend is chosen once per process, see
@@ -8,38 +7,23 @@ window and renderer.
 
 Scene protocol
 --------------
-The viewer reads a scene through these attributes (a :class:`runtime.World` provides them;
-:class:`TrackScene` is a stand-in):
+The viewer reads a scene only through :class:`runtime.view.SceneView` (``environment``,
+``skeleton``, ``joint_positions()``, ``step(dt)``) and the optional members of
+:class:`runtime.view.InteractiveSceneView` (``dt``, ``obstacle_heights``,
+``flock_positions()``, ``box_positions()``, ``hud_stats()``, ``select(i)``,
+``command_go_to(i, xz)``), each used when the scene has it. A :class:`runtime.World`
+provides them all; :class:`TrackScene` is a stand-in. The skeleton's joint names choose the
+figure style (CMU names give shaded capsule-limbed people); joint 0 of each character is its
+root (picking, shadows, selection ring); movable boxes from ``box_positions()`` (0.4 m crates)
+are drawn instead of the environment's static box markers. The viewer passes ``step`` the real
+frame time times the time scale, and ``dt`` for a single step.
 
-Required
-
-* ``scene.environment`` -- :class:`runtime.crowd.environment.Environment`: obstacles are drawn
-  as their footprints extruded, seats/boxes/spawn points/regions from its markers. Read when the
-  viewer starts and again whenever the attribute refers to a different object.
-* ``scene.skeleton`` -- :class:`runtime.motion.skeleton.Skeleton` shared by all characters
-  (its joint names choose the figure style; CMU names give shaded capsule-limbed people).
-* ``scene.joint_positions()`` -> array (N, J, 3): every character's joint world positions at the
-  current render time (interpolated between ticks, e.g. :meth:`runtime.pose.PoseBatch.positions`).
-  Character ``i`` is row ``i``; joint 0 is the root (used for picking, shadows, selection ring).
-* ``scene.step(dt)``: advance the scene by ``dt`` seconds of simulated time (the scene runs its
-  own fixed-timestep accumulator). The viewer passes real frame time times the time scale, and
-  ``scene.dt`` for a single step.
-
-Optional
-
-* ``scene.dt`` -- tick length in seconds (default 1/30), used by single-step ('.').
-* ``scene.flock_positions()`` -> ``(positions (M, 3), headings (M,))`` of flock agents, drawn as
-  oriented arrowheads (heading radians about +Y, 0 facing +Z).
-* ``scene.hud_stats()`` -> dict of name -> value shown in the HUD in order (e.g. ``"tick ms"``,
-  ``"synthesis ms"``, ``"characters"``, ``"queue"``); the viewer adds fps, render ms, speed.
-* ``scene.select(i)`` -- told when character ``i`` (or None) is selected by a click.
-* ``scene.command_go_to(i, xz)`` -- right-click on the ground with character ``i`` selected;
-  ``xz`` is a float64 array (2,) in metres.
-* ``scene.obstacle_heights`` -- sequence of heights (m) per obstacle in ``environment``
-  order (polygons then circles); default 1 m.
-* ``scene.box_positions()`` -> array (K, 4): bottom-centre x, y, z and heading of every box
-  (0.4 m crates), drawn instead of the environment's static box markers -- for scenes whose
-  characters pick boxes up and carry them.
+Modules
+-------
+``window`` (the frame loop and input), ``camera`` (numpy), ``render`` (one frame) with its
+passes ``backdrop`` and ``characters``, ``figures`` and ``meshes`` (geometry, numpy),
+``lighting`` (colours), ``gl`` (GL wrappers; GLSL in ``shaders/``), ``hud``, ``headless``
+(backend choice), ``scene`` (:class:`TrackScene`), ``baseline`` (the benchmark's references).
 
 Entry points
 ------------
@@ -63,22 +47,23 @@ HUD, Esc quits.
 """
 from __future__ import annotations
 
+from ..view import SceneView
 from .camera import OrbitCamera, project
 from .scene import TrackScene
 
 __all__ = ["run_viewer", "make_viewer", "TrackScene", "OrbitCamera", "project"]
 
 
-def make_viewer(scene, headless: bool | None = False, width: int = 1280, height: int = 720, **kwargs):
+def make_viewer(scene: SceneView, headless: bool | None = False, width: int = 1280, height: int = 720, **kwargs):
     """Select pyglet's backend (headless EGL, or a window on ``$DISPLAY``; ``None`` = headless
     when there is no display) and create a :class:`~runtime.viewer.window.Viewer` for ``scene``."""
-    from . import headless as _headless
-    _headless.configure(headless)
+    from . import headless as backend
+    backend.configure(headless)
     from .window import Viewer
     return Viewer(scene, width=width, height=height, **kwargs)
 
 
-def run_viewer(scene, headless: bool | None = False, seconds: float | None = None, screenshot=None,
+def run_viewer(scene: SceneView, headless: bool | None = False, seconds: float | None = None, screenshot=None,
                width: int = 1280, height: int = 720, max_frames: int | None = None, min_frames: int = 1,
                camera=None, **kwargs):
     """Open the viewer on ``scene`` and run until the window closes, or for ``seconds`` /

@@ -3,9 +3,9 @@ help line (bottom). pyglet text in one batch; drawn after the 3D scene with dept
 using pyglet's own window projection (the 3D renderer never touches it)."""
 from __future__ import annotations
 
-from . import headless as _headless
+from . import headless
 
-_headless.ensure()
+headless.ensure()
 import pyglet  # noqa: E402
 from pyglet import shapes  # noqa: E402
 

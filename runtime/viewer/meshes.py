@@ -1,19 +1,16 @@
-"""Geometry the viewer draws, built with numpy (no GL here): the unit capsule that every bone
-instances, the flock agents' arrowhead, the static environment mesh (obstacle footprints
-extruded to prisms, seats, boxes, spawn points and regions), and the figure style that maps a
-skeleton's joints to capsule bones with radii and colour parts.
+"""Geometry the viewer draws, built with numpy (no GL here): the unit capsule of the
+instanced baseline, the flock agents' arrowhead, boxes, the static environment mesh (obstacle
+footprints extruded to prisms, seats, boxes, spawn points and regions), copies of a mesh posed
+on the ground, and the decals (blob shadows and rings). Characters' capsules are in
+:mod:`runtime.viewer.figures`.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 
-__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "FigureStyle", "BoneSet", "character_palette",
-           "triangulate", "PARTS"]
-
-PARTS = ("skin", "shirt", "trousers", "shoes")
+__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "triangulate", "posed_copies",
+           "decal_vertices", "CARDBOARD"]
 
 
 # -- capsule -----------------------------------------------------------------------------------------
@@ -266,112 +263,46 @@ def environment_mesh(env, heights=None, default_height: float = 1.0, draw_boxes:
     return mb.build()
 
 
-# -- characters ------------------------------------------------------------------------------------
+# -- per frame -------------------------------------------------------------------------------------
 
-@dataclass
-class BoneSet:
-    """Capsules of one level of detail: bone ``k`` runs from point ``a[k]`` to ``b[k]`` with
-    ``radius[k]`` and colour ``part[k]`` (index into :data:`PARTS`)."""
-    a: np.ndarray
-    b: np.ndarray
-    radius: np.ndarray
-    part: np.ndarray
-
-    def __len__(self):
-        return len(self.a)
-
-
-@dataclass
-class FigureStyle:
-    """How a skeleton becomes capsules, at two levels of detail: ``near`` (every limb segment,
-    14 capsules for the CMU skeleton) and ``far`` (6 capsules: body, head, whole legs and arms;
-    used when a figure is small on screen). Points are the skeleton's joints followed by
-    virtual points ``virtual[v] = (joint, from_joint, length)`` placed at
-    ``P[joint] + length * unit(P[joint] - P[from_joint])`` (the head top)."""
-    near: BoneSet
-    far: BoneSet
-    virtual: tuple
-    num_joints: int
-
-    @classmethod
-    def for_skeleton(cls, skeleton) -> "FigureStyle":
-        names = skeleton.names
-        cmu = ("Hips", "LeftUpLeg", "RightUpLeg", "LeftLeg", "LeftFoot", "Spine1", "Neck", "Head",
-               "LeftArm", "LeftForeArm", "LeftHand", "RightArm", "RightLeg", "RightFoot", "RightForeArm",
-               "RightHand")
-        if all(n in names for n in cmu):
-            return cls._cmu(skeleton)
-        return cls._generic(skeleton)
-
-    @classmethod
-    def _cmu(cls, sk) -> "FigureStyle":
-        J = sk.num_joints
-        ix = sk.index
-        neck = "Neck1" if sk.has("Neck1") else "Neck"
-        virtual = [(ix("Head"), ix(neck), 0.15)]
-        HEAD_TOP = J
-
-        def bones(spec):
-            a, b, r, p = [], [], [], []
-            for u, v, rad, part in spec:
-                if (isinstance(u, str) and not sk.has(u)) or (isinstance(v, str) and not sk.has(v)):
-                    continue
-                a.append(u if isinstance(u, int) else ix(u))
-                b.append(v if isinstance(v, int) else ix(v))
-                r.append(rad)
-                p.append(part)
-            return BoneSet(np.array(a), np.array(b), np.array(r, dtype=np.float32), np.array(p))
-
-        near = [("Hips", "Spine1", 0.115, 1), ("Spine1", "Neck", 0.125, 1), ("LeftArm", "RightArm", 0.062, 1),
-                ("Head", HEAD_TOP, 0.095, 0)]
-        far = [("Hips", "Neck", 0.135, 1), ("Head", HEAD_TOP, 0.1, 0)]
-        for side in ("Left", "Right"):
-            hand = next((f"{side}{h}" for h in ("HandIndex1", "FingerBase") if sk.has(f"{side}{h}")), f"{side}Hand")
-            near += [(f"{side}UpLeg", f"{side}Leg", 0.07, 2), (f"{side}Leg", f"{side}Foot", 0.052, 2),
-                     (f"{side}Foot", f"{side}ToeBase", 0.042, 3),
-                     (f"{side}Arm", f"{side}ForeArm", 0.05, 1), (f"{side}ForeArm", hand, 0.04, 0)]
-            far += [(f"{side}UpLeg", f"{side}Foot", 0.065, 2), (f"{side}Arm", f"{side}Hand", 0.048, 1)]
-        return cls(bones(near), bones(far), tuple(virtual), J)
-
-    @classmethod
-    def _generic(cls, sk) -> "FigureStyle":
-        L = np.linalg.norm(sk.offsets, axis=1)
-        js = np.flatnonzero((sk.parents >= 0) & (L > 0.03))
-        r = np.clip(L[js] * 0.18, 0.025, 0.07).astype(np.float32)
-        bs = BoneSet(sk.parents[js], js, r, np.ones(len(js), dtype=np.int64))
-        return cls(bs, bs, (), sk.num_joints)
-
-    def points(self, positions: np.ndarray) -> np.ndarray:
-        """Joint positions (N, J, 3) followed by the virtual points: (N, J + V, 3) float32."""
-        P = np.asarray(positions, dtype=np.float32)
-        if not self.virtual:
-            return np.ascontiguousarray(P)
-        extra = []
-        for j, f, length in self.virtual:
-            d = P[:, j] - P[:, f]
-            d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-6)
-            extra.append(P[:, j] + length * d)
-        return np.concatenate([P, np.stack(extra, axis=1)], axis=1)
+def posed_copies(mesh: np.ndarray, pos: np.ndarray, heading: np.ndarray, colour) -> np.ndarray:
+    """Copies of ``mesh`` (K, 6) position+normal turned by ``heading`` (M,) about +Y and moved
+    to ``pos`` (M, 3): lit vertices (M * K, 9) position, normal, ``colour``."""
+    m = len(pos)
+    A = mesh
+    c, s = np.cos(heading), np.sin(heading)
+    px, pz = A[:, 0], A[:, 2]
+    nx, nz = A[:, 3], A[:, 5]
+    v = np.empty((m, len(A), 9), dtype=np.float32)
+    v[:, :, 0] = pos[:, 0:1] + c[:, None] * px + s[:, None] * pz
+    v[:, :, 1] = pos[:, 1:2] + A[:, 1]
+    v[:, :, 2] = pos[:, 2:3] - s[:, None] * px + c[:, None] * pz
+    v[:, :, 3] = c[:, None] * nx + s[:, None] * nz
+    v[:, :, 4] = A[:, 4]
+    v[:, :, 5] = -s[:, None] * nx + c[:, None] * nz
+    v[:, :, 6:9] = colour
+    return v.reshape(-1, 9)
 
 
-_SHIRTS = np.array([[0.86, 0.26, 0.22], [0.20, 0.48, 0.80], [0.95, 0.68, 0.16], [0.22, 0.66, 0.42],
-                    [0.62, 0.32, 0.72], [0.94, 0.94, 0.92], [0.16, 0.70, 0.76], [0.90, 0.44, 0.62],
-                    [0.55, 0.78, 0.25], [0.98, 0.52, 0.18], [0.30, 0.34, 0.62], [0.80, 0.16, 0.40]])
-_TROUSERS = np.array([[0.18, 0.22, 0.34], [0.26, 0.26, 0.28], [0.40, 0.32, 0.22], [0.14, 0.30, 0.46],
-                      [0.34, 0.36, 0.30], [0.48, 0.44, 0.38]])
-_SKIN = np.array([[0.96, 0.80, 0.66], [0.88, 0.68, 0.52], [0.72, 0.52, 0.38], [0.52, 0.36, 0.26],
-                  [0.98, 0.86, 0.74]])
-_SHOES = np.array([[0.12, 0.11, 0.10], [0.36, 0.24, 0.16], [0.82, 0.82, 0.80]])
-
-
-def character_palette(n: int, seed: int = 7) -> np.ndarray:
-    """Colours (n, len(PARTS), 3) float32; character ``i`` gets the same colours whatever ``n``
-    (an integer hash of ``i`` and ``seed`` picks from each part's palette)."""
-    i = np.arange(n, dtype=np.uint64)
-    out = np.empty((n, len(PARTS), 3), dtype=np.float32)
-    for k, pal in enumerate((_SKIN, _SHIRTS, _TROUSERS, _SHOES)):
-        h = (i + np.uint64(seed * 7919 + k * 104729)) * np.uint64(2654435761)
-        h ^= h >> np.uint64(13)
-        h = (h * np.uint64(0x9E3779B1)) & np.uint64(0xFFFFFFFF)
-        out[:, k] = pal[(h >> np.uint64(8)) % np.uint64(len(pal))]
-    return out
+def decal_vertices(roots: np.ndarray, rings) -> np.ndarray:
+    """Ground quads (V, 10) = position, corner u, v, kind, rgba: a blob shadow under each of
+    ``roots`` (N, 3) and the ``rings`` [(x, z, radius, (r, g, b, a)), ...] (kind 1)."""
+    n = len(roots)
+    items = np.zeros((n + len(rings), 8), dtype=np.float32)     # x, z, radius, kind, rgba
+    if n:
+        items[:n, 0] = roots[:, 0]
+        items[:n, 1] = roots[:, 2]
+        items[:n, 2] = 0.42
+        items[:n, 7] = 0.36
+    for k, (x, z, r, col) in enumerate(rings):
+        items[n + k] = (x, z, r, 1.0, *col)
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, -1], [1, 1], [-1, 1]], dtype=np.float32)
+    m = len(items)
+    v = np.empty((m, 6, 10), dtype=np.float32)
+    v[:, :, 0] = items[:, None, 0] + corners[None, :, 0] * items[:, None, 2]
+    v[:, :, 1] = 0.012
+    v[:, :, 2] = items[:, None, 1] + corners[None, :, 1] * items[:, None, 2]
+    v[:, :, 3:5] = corners[None]
+    v[:, :, 5] = items[:, None, 3]
+    v[:, :, 6:10] = items[:, None, 4:8]
+    return v.reshape(-1, 10)

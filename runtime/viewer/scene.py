@@ -10,9 +10,10 @@ displacements (``edge_disp``). It is a greedy wander, not a planner: characters 
 each other and may clip corners. Everything is vectorized over characters; random choices
 come from one seeded ``numpy.random.Generator``.
 
-Poses are rendered through :class:`runtime.pose.PoseBatch` (interpolated between ticks). The
-scene implements the viewer's scene protocol (see :mod:`runtime.viewer`), so the viewer code
-paths exercised here are the ones a :class:`runtime.World` uses.
+Poses are rendered through :class:`runtime.pose.PoseBatch` (interpolated between ticks), on
+the fixed-step clock the World uses (:class:`runtime.clock.FixedStep`). The scene implements
+every member of :class:`runtime.view.InteractiveSceneView`, so the viewer code paths
+exercised here are the ones a :class:`runtime.World` uses.
 """
 from __future__ import annotations
 
@@ -21,18 +22,12 @@ import time
 
 import numpy as np
 
+from ..clock import FixedStep
 from ..crowd.environment import Environment
+from ..motion.planar import compose
 from ..pose import PoseBatch, PoseState
 
 __all__ = ["TrackScene"]
-
-
-def _compose(origin, disp):
-    """Planar configurations ``origin`` (..., 3) followed by local moves ``disp`` (..., 3)."""
-    c, s = np.cos(origin[..., 2]), np.sin(origin[..., 2])
-    x = origin[..., 0] + c * disp[..., 0] + s * disp[..., 1]
-    z = origin[..., 1] - s * disp[..., 0] + c * disp[..., 1]
-    return np.stack([x, z, origin[..., 2] + disp[..., 2]], axis=-1)
 
 
 class TrackScene:
@@ -65,7 +60,7 @@ class TrackScene:
         self.n = int(n)
         self.time = 0.0
         self.ticks = 0
-        self.accumulator = 0.0
+        self.clock = FixedStep(self.dt)
         self.selected: int | None = None
         self.commands: list[tuple[int, np.ndarray]] = []
         self._tick_ms = 0.0
@@ -128,7 +123,7 @@ class TrackScene:
         fb = fa + 1
         xz = g.frame_xz[fa] * (1 - t)[:, None] + g.frame_xz[fb] * t[:, None]
         h = g.frame_heading[fa] * (1 - t) + g.frame_heading[fb] * t
-        return _compose(origin, np.column_stack([xz, h]))
+        return compose(origin, np.column_stack([xz, h]))
 
     def pose_state(self, root=None) -> PoseState:
         g = self.graph
@@ -177,7 +172,7 @@ class TrackScene:
             if len(done) == 0:
                 break
             e = self.edge[done]
-            self.origin[done] = _compose(self.origin[done], g.edge_disp[e])
+            self.origin[done] = compose(self.origin[done], g.edge_disp[e])
             self.u[done] -= last[done]
             self.edge[done] = self._choose(done, g.edge_dst[e])
         # new way points for those that arrived
@@ -204,9 +199,9 @@ class TrackScene:
         valid = cand >= 0
         ce = np.where(valid, cand, 0)
         org = self.origin[idx][:, None, :]
-        end = _compose(org, g.edge_disp[ce])                       # (M, K, 3)
+        end = compose(org, g.edge_disp[ce])                        # (M, K, 3)
         mid_local = np.concatenate([g.frame_xz[self._mid[ce]], g.frame_heading[self._mid[ce]][..., None]], axis=-1)
-        mid = _compose(org, mid_local)
+        mid = compose(org, mid_local)
         score = np.hypot(*(end[..., :2] - self.goal[idx][:, None, :]).transpose(2, 0, 1))
         score += self.rng.random(score.shape) * 0.6
         if self._sdf is not None:
@@ -217,19 +212,14 @@ class TrackScene:
 
     # -- the scene protocol --------------------------------------------------------------------------
     def step(self, dt: float) -> None:
-        """Advance ``dt`` seconds: whole ticks from the accumulator, the rest is interpolation."""
-        self.accumulator += max(0.0, float(dt))
-        n = 0
-        while self.accumulator >= self.dt and n < 8:
+        """Advance ``dt`` seconds: whole ticks from the clock, the rest is interpolation."""
+        for _ in range(self.clock.advance(dt)):
             self.tick()
-            self.accumulator -= self.dt
-            n += 1
-        if self.accumulator >= self.dt:  # far behind (slow frame): drop time rather than spiral
-            self.accumulator %= self.dt
 
     @property
     def alpha(self) -> float:
-        return min(1.0, self.accumulator / self.dt)
+        """Fraction of a tick since the last tick (render interpolation)."""
+        return self.clock.alpha
 
     def joint_positions(self) -> np.ndarray:
         return self.batch.positions(self.alpha)

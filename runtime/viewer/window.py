@@ -1,5 +1,7 @@
 """The viewer window: a pyglet window (X11 or headless EGL), the orbit camera, the renderer,
-the HUD, input handling and the frame loop. See :mod:`runtime.viewer` for the scene protocol.
+the HUD, input handling and the frame loop. The scene is read only through
+:class:`runtime.view.SceneView`; the optional members of
+:class:`runtime.view.InteractiveSceneView` are looked up with ``getattr``.
 
 Import this module only after :func:`runtime.viewer.headless.configure` (``run_viewer`` does it).
 """
@@ -12,14 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import headless as _headless
+from . import headless
 
-_headless.ensure()                      # pyglet's backend must be chosen before pyglet.window loads
+headless.ensure()                       # pyglet's backend must be chosen before pyglet.window loads
 import pyglet  # noqa: E402
 from pyglet import gl  # noqa: E402
 from pyglet.window import key, mouse  # noqa: E402
 
 from ..assets import atomic_write_bytes  # noqa: E402
+from ..view import SceneView  # noqa: E402
 from .camera import OrbitCamera  # noqa: E402
 from .hud import Hud, format_stats  # noqa: E402
 from .render import Renderer  # noqa: E402
@@ -47,12 +50,13 @@ class FrameInfo:
 
 
 class Viewer:
-    """Renders a scene source (see :mod:`runtime.viewer`) in a window and handles input.
+    """Renders a scene (see :mod:`runtime.view`) in a window and handles input.
 
     ``window`` may be given (an existing pyglet window, e.g. owned by a game); otherwise one of
-    ``width`` x ``height`` is created."""
+    ``width`` x ``height`` is created. ``frame_ms`` holds the last frame's timings (ms) of
+    "step", "poses", "render" and "gl wait"."""
 
-    def __init__(self, scene, width: int = 1280, height: int = 720, window=None, caption="crowdweave",
+    def __init__(self, scene: SceneView, width: int = 1280, height: int = 720, window=None, caption="crowdweave",
                  vsync: bool = False, visible: bool = True):
         self.scene = scene
         if window is None:
@@ -85,20 +89,25 @@ class Viewer:
         self._fps_t0 = time.perf_counter()
         self._fps = 0.0
         self._last_positions = None
-        self._frame_ms = {}
+        self.frame_ms: dict[str, float] = {}
         self.commands_sent: list[tuple[int, np.ndarray]] = []
         self._clock = None                 # time of the last update (kept across run() calls)
         window.push_handlers(self)
 
     # -- scene access -------------------------------------------------------------------------------
+    def _optional(self, name: str):
+        """The scene's optional member ``name`` (:class:`runtime.view.InteractiveSceneView`),
+        or None when it has none."""
+        return getattr(self.scene, name, None)
+
     def _sync_environment(self):
         """(Re)build the static environment mesh when the scene's environment object changes
         or the scene starts or stops providing ``box_positions``."""
         env = getattr(self.scene, "environment", None)
-        dynamic_boxes = hasattr(self.scene, "box_positions")
+        dynamic_boxes = self._optional("box_positions") is not None
         if env is None or (env is self._env and dynamic_boxes == self._dynamic_boxes):
             return
-        heights = getattr(self.scene, "obstacle_heights", None)
+        heights = self._optional("obstacle_heights")
         self.renderer.set_environment(env, heights, draw_boxes=not dynamic_boxes)
         if self._env is None:
             self.camera.frame(self.renderer.area, margin=0.85)
@@ -143,8 +152,9 @@ class Viewer:
 
     def select(self, i) -> None:
         self.selected = i
-        if hasattr(self.scene, "select"):
-            self.scene.select(i)
+        select = self._optional("select")
+        if select is not None:
+            select(i)
 
     def ground_point(self, x: float, y: float):
         """(x, z) of the ground under the centre of window pixel (x, y), or None."""
@@ -159,8 +169,9 @@ class Viewer:
         hit = self.ground_point(x, y)
         if hit is None:
             return None
-        if hasattr(self.scene, "command_go_to"):
-            self.scene.command_go_to(self.selected, hit)
+        command_go_to = self._optional("command_go_to")
+        if command_go_to is not None:
+            command_go_to(self.selected, hit)
         self.commands_sent.append((self.selected, hit))
         self.target_marker = (float(hit[0]), float(hit[1]), time.perf_counter() + 3.0)
         return hit
@@ -198,7 +209,8 @@ class Viewer:
             self.paused = not self.paused
         elif symbol in (key.PERIOD, key.NUM_DECIMAL):
             self.paused = True
-            self.scene.step(float(getattr(self.scene, "dt", 1.0 / 30.0)))
+            dt = self._optional("dt")
+            self.scene.step(float(1.0 / 30.0 if dt is None else dt))
         elif symbol in (key.PLUS, key.EQUAL, key.NUM_ADD):
             self.time_scale = min(self.time_scale * 2.0, 16.0)
         elif symbol in (key.MINUS, key.NUM_SUBTRACT):
@@ -219,14 +231,15 @@ class Viewer:
         t0 = time.perf_counter()
         if not self.paused:
             self.scene.step(dt * self.time_scale)
-        self._frame_ms["step"] = (time.perf_counter() - t0) * 1e3
+        self.frame_ms["step"] = (time.perf_counter() - t0) * 1e3
 
     def draw(self) -> None:
         self._sync_environment()
         t0 = time.perf_counter()
         P = np.asarray(self.scene.joint_positions())
-        flock = self.scene.flock_positions() if hasattr(self.scene, "flock_positions") else None
-        boxes = self.scene.box_positions() if hasattr(self.scene, "box_positions") else None
+        flock_positions, box_positions = self._optional("flock_positions"), self._optional("box_positions")
+        flock = flock_positions() if flock_positions is not None else None
+        boxes = box_positions() if box_positions is not None else None
         t1 = time.perf_counter()
         self._last_positions = P
         if self.follow and self.selected is not None and self.selected < len(P):
@@ -247,8 +260,8 @@ class Viewer:
                 self.target_marker = None
         self.renderer.draw(view, proj, self.camera.eye, w, h, P, flock, self.selected, rings, boxes)
         t2 = time.perf_counter()
-        self._frame_ms["poses"] = (t1 - t0) * 1e3
-        self._frame_ms["render"] = (t2 - t1) * 1e3
+        self.frame_ms["poses"] = (t1 - t0) * 1e3
+        self.frame_ms["render"] = (t2 - t1) * 1e3
         gl.glViewport(0, 0, w, h)
         self._draw_hud()
         self.info.width, self.info.height = w, h
@@ -258,9 +271,10 @@ class Viewer:
         self.info.selected = self.selected
 
     def _draw_hud(self):
-        stats = dict(self.scene.hud_stats()) if hasattr(self.scene, "hud_stats") else {}
+        hud_stats = self._optional("hud_stats")
+        stats = dict(hud_stats()) if hud_stats is not None else {}
         n = len(self._last_positions) if self._last_positions is not None else 0
-        vstats = {"fps": round(self._fps, 1), "render ms": round(self._frame_ms.get("render", 0.0), 2),
+        vstats = {"fps": round(self._fps, 1), "render ms": round(self.frame_ms.get("render", 0.0), 2),
                   "speed": f"x{self.time_scale:g}" + (" PAUSED" if self.paused else "")}
         if "characters" not in stats:
             vstats["characters"] = n
@@ -311,7 +325,7 @@ class Viewer:
             if finish:
                 t0 = time.perf_counter()
                 gl.glFinish()
-                self._frame_ms["gl wait"] = (time.perf_counter() - t0) * 1e3
+                self.frame_ms["gl wait"] = (time.perf_counter() - t0) * 1e3
             frames += 1
             self._tick_fps()
             elapsed = time.perf_counter() - start
@@ -326,7 +340,7 @@ class Viewer:
         self.info.frames = frames
         self.info.seconds = elapsed
         self.info.fps = frames / elapsed if elapsed > 0 else 0.0
-        self.info.timings_ms = dict(self._frame_ms)
+        self.info.timings_ms = dict(self.frame_ms)
         return self.info
 
     def close(self):
