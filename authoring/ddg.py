@@ -74,7 +74,6 @@ class DDGBuildParams:
             raise ValueError("max_rms and transitions_per_minute must be positive")
 
 
-BuildParams = DDGBuildParams    # the former name, for callers not yet renamed
 
 
 @dataclass

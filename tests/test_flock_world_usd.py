@@ -5,7 +5,7 @@ import pytest
 from pxr import Usd, UsdGeom
 
 from authoring.boids import BoidsParams, record_flock
-from authoring.ddg import BuildParams, build_ddg
+from authoring.ddg import DDGBuildParams, build_ddg
 from runtime.flock import Polygon, WalkChecker
 from runtime.world import World
 from usd_io.flock import write_flock_instancer
@@ -18,7 +18,7 @@ REGION = Polygon([[-40, -40], [40, -40], [40, 40], [-40, 40]])
 @pytest.fixture(scope="module")
 def ddg2():
     rec = record_flock(BoidsParams(dim=2), 90.0, seed=3)
-    return build_ddg(rec, BuildParams())[0]
+    return build_ddg(rec, DDGBuildParams())[0]
 
 
 def test_flocks_tick_with_the_world_and_bake_to_usd(default_graph, ddg2, tmp_path):

@@ -4,7 +4,7 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from runtime.motion.clip import rotate_xz
+from runtime.motion.planar import rotate_xz
 from runtime.tiling.deform import DEFAULT_LIMITS, PatchDeformer, port_row_targets
 from runtime.tiling.synthetic import meet_patch
 from test_tiling_util import graph, singles  # noqa: F401  (fixtures)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from runtime.assets import AssetError, load_pack, save_pack
-from runtime.motion.clip import rotate_xz
+from runtime.motion.planar import rotate_xz
 from runtime.motion.fk import end_site_positions, forward_kinematics
 from runtime.motion import quat
 from runtime.tiling.patch import (Constraint, Fragment, Patch, PatchLibrary, single_character_patches,

@@ -23,18 +23,10 @@ import numpy as np
 
 from . import quat
 from .fk import forward_kinematics
+from .planar import rotate_xz
 from .skeleton import Skeleton
 
-__all__ = ["Clip", "rotate_xz"]
-
-
-def rotate_xz(xz: np.ndarray, heading) -> np.ndarray:
-    """Rotate planar vectors (..., 2) = (x, z) by headings about +Y (radians)."""
-    c = np.cos(heading)
-    s = np.sin(heading)
-    x = xz[..., 0]
-    z = xz[..., 1]
-    return np.stack([c * x + s * z, -s * x + c * z], axis=-1)
+__all__ = ["Clip"]
 
 
 @dataclass(frozen=True, eq=False)

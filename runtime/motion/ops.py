@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import quat
-from .clip import Clip, rotate_xz
+from .clip import Clip
+from .planar import rotate_xz
 
 __all__ = ["cut", "sample", "resample", "append", "mirror", "reverse"]
 
