@@ -102,8 +102,22 @@ def _pass_pair(skel, rng, giver: Performer, taker: Performer, fps, f0, labels=("
     contact = (int(idx[0]), int(idx[-1]))
     gg = Group(cg, [(0, n - 1, labels[0])], [(0, "carry_stand")], [], giver.state)
     gr = Group(cr, [(0, n - 1, labels[1])], [(0, "stand")], [], taker.state)
-    holder = np.where(t < 0.5 * (t_grab1 + t_hold1), 0, 1)
-    return gg, gr, contact, box, holder
+    return gg, gr, contact, box
+
+
+def _hand_over(skel, rng, giver: Performer, taker: Performer, fps, f0, people):
+    """The giver hands its box to the taker, both standing face to face from frame ``f0`` of
+    the take: adds the hand-over groups to both timelines and returns the contact event and
+    the box prop. ``people``: (giver, taker) indices in the take."""
+    gg, gr, (c0, c1), box = _pass_pair(skel, rng, giver, taker, fps, f0)
+    giver.add(gg)
+    giver.carry = False
+    taker.add(gr)
+    taker.carry = True
+    ev = Event("box_pass", "contact", people, f0 + c0, f0 + c1)
+    prop = {"kind": "box", "size": list(BOX_SIZE), "pass_frames": [f0, f0 + len(box) - 1],
+            "from": people[0], "to": people[1], "track": np.round(box, 4).tolist()}
+    return ev, prop
 
 
 def scene_box_pass(skel, rng, fps) -> Scene:
@@ -111,16 +125,9 @@ def scene_box_pass(skel, rng, fps) -> Scene:
     D = float(rng.uniform(0.8, 0.9))
     A, B, f0 = meet(skel, rng, fps, D, carry_a=True)
     pa, pb = np.array(A.state[:2]), np.array(B.state[:2])
-    gg, gr, (c0, c1), box, holder = _pass_pair(skel, rng, A, B, fps, f0)
-    A.add(gg)
-    A.carry = False
-    B.add(gr)
-    B.carry = True
-    ev = Event("box_pass", "contact", (0, 1), f0 + c0, f0 + c1)
+    ev, prop = _hand_over(skel, rng, A, B, fps, f0, (0, 1))
     walk_off(skel, rng, fps, A, heading_away(rng, A, pb), carry=False)
     walk_off(skel, rng, fps, B, heading_away(rng, B, pa), carry=True)
-    prop = {"kind": "box", "size": list(BOX_SIZE), "pass_frames": [f0, f0 + len(box) - 1],
-            "from": 0, "to": 1, "track": np.round(box, 4).tolist()}
     return finish_scene(skel, "box_pass", [A, B], fps, [ev], props=[prop])
 
 
@@ -130,12 +137,7 @@ def scene_relay(skel, rng, fps) -> Scene:
     A, B, f0 = meet(skel, rng, fps, D, carry_a=True)
     C = Performer("C", (0, 0, 0))
     pa, pb = np.array(A.state[:2]), np.array(B.state[:2])
-    gg, gr, (c0, c1), box, _ = _pass_pair(skel, rng, A, B, fps, f0)
-    A.add(gg)
-    A.carry = False
-    B.add(gr)
-    B.carry = True
-    ev1 = Event("box_pass", "contact", (0, 1), f0 + c0, f0 + c1)
+    ev1, prop1 = _hand_over(skel, rng, A, B, fps, f0, (0, 1))
     # B turns by +-90 deg (towards C's side)
     sgn = float(rng.choice([-1.0, 1.0]))
     new_h = B.state[2] + sgn * np.radians(rng.uniform(80, 100))
@@ -159,16 +161,7 @@ def scene_relay(skel, rng, fps) -> Scene:
         f2 = C.frames
         B.wait_until(f2, fps, look=pc)
     C.wait_until(f2, fps, look=end_b)
-    gg2, gr2, (d0, d1), box2, _ = _pass_pair(skel, rng, B, C, fps, f2)
-    B.add(gg2)
-    B.carry = False
-    C.add(gr2)
-    C.carry = True
-    ev2 = Event("box_pass", "contact", (1, 2), f2 + d0, f2 + d1)
+    ev2, prop2 = _hand_over(skel, rng, B, C, fps, f2, (1, 2))
     walk_off(skel, rng, fps, B, heading_away(rng, B, pc, 20.0), carry=False)
     walk_off(skel, rng, fps, C, heading_away(rng, C, end_b, 20.0), carry=True)
-    props = [{"kind": "box", "size": list(BOX_SIZE), "pass_frames": [f0, f0 + len(box) - 1], "from": 0, "to": 1,
-              "track": np.round(box, 4).tolist()},
-             {"kind": "box", "size": list(BOX_SIZE), "pass_frames": [f2, f2 + len(box2) - 1], "from": 1, "to": 2,
-              "track": np.round(box2, 4).tolist()}]
-    return finish_scene(skel, "relay", [A, B, C], fps, [ev1, ev_turn, ev2], props=props)
+    return finish_scene(skel, "relay", [A, B, C], fps, [ev1, ev_turn, ev2], props=[prop1, prop2])

@@ -109,20 +109,48 @@ def stagger(skel, rng, state, fps, push_dir, hit_side, delay) -> Group:
                  [(0, "stand")], [], (float(p1[0]), float(p1[1]), float(th1)))
 
 
+def _pass_by(skel, rng, fps, spread_deg):
+    """The set-up of a pass-by: a line along a random heading ``axis`` through a random
+    ``centre``, and B's walk run (``gb``, not yet on B's timeline) to stand at the centre
+    facing back along the line (within +-``spread_deg``).
+
+    Returns:
+        ``(A, B, gb, centre, axis, fwd, left)``: the passer A (timeline empty), B (state at
+        the start of ``gb``), the walk run, and the line's direction and A's left (x, z).
+    """
+    centre = rng.uniform(-1.0, 1.0, size=2)
+    axis = float(rng.uniform(-np.pi, np.pi))            # direction the passer walks
+    fwd = np.array([np.sin(axis), np.cos(axis)])
+    left = np.array([np.cos(axis), -np.sin(axis)])      # the passer's left in the world
+    A = Performer("A", (0, 0, 0))
+    B = Performer("B", (0, 0, 0))
+    gb = run_to(skel, rng, (centre[0], centre[1], axis + np.pi + np.radians(rng.uniform(-spread_deg, spread_deg))),
+                fps, WALK, int(rng.integers(1, 3)))
+    B.state = start_state(gb)
+    return A, B, gb, centre, axis, fwd, left
+
+
+def _line_up(rng, fps, A, B, ga, gb, a_start, f_event, b_stand):
+    """Put a pass-by on the shared clock: B waits a few frames, walks in (``gb``) and stands
+    for ``b_stand`` = (low, high) frames (drawn) before A's run ``ga``, starting at
+    ``a_start`` = (x, z, heading), reaches its frame ``f_event``. Returns A's first frame
+    of ``ga`` on the clock."""
+    B.wait(int(rng.integers(6, 20)), fps)
+    B.add(gb)
+    ready = B.frames + int(rng.integers(*b_stand))
+    start_a = max(ready - f_event, int(rng.integers(6, 20)))
+    A.state = (float(a_start[0]), float(a_start[1]), a_start[2])
+    A.wait(start_a, fps)
+    A.add(ga)
+    return start_a
+
+
 def scene_bump(skel, rng, fps) -> Scene:
     """A walks past B, who is standing, close enough that their right shoulders collide;
     B staggers back."""
-    centre = rng.uniform(-1.0, 1.0, size=2)
-    axis = float(rng.uniform(-np.pi, np.pi))            # direction the bumper walks
-    fwd = np.array([np.sin(axis), np.cos(axis)])
-    left = np.array([np.cos(axis), -np.sin(axis)])      # the bumper's left in the world
     # B stands at the centre facing the bumper (heading axis + pi), so B's right is the bumper's
     # left; the bumper's line is offset to its left, so the two right shoulders meet.
-    B = Performer("B", (0, 0, 0))
-    A = Performer("A", (0, 0, 0))
-    gb = run_to(skel, rng, (centre[0], centre[1], axis + np.pi + np.radians(rng.uniform(-10, 10))), fps,
-                WALK, int(rng.integers(1, 3)))
-    B.state = start_state(gb)
+    A, B, gb, centre, axis, fwd, left = _pass_by(skel, rng, fps, 10)
     lateral = float(rng.uniform(0.36, 0.42))
     n_steps = int(rng.integers(7, 10))
     first = int(rng.integers(0, 2))
@@ -138,14 +166,7 @@ def scene_bump(skel, rng, fps) -> Scene:
     rel = np.sum((plan.path - centre) * fwd, axis=1)
     f_pass = int(np.argmin(np.abs(rel)))
     # timelines: B arrives and waits; A starts so that it passes B after B has stood a while
-    pad_b = int(rng.integers(6, 20))
-    B.wait(pad_b, fps)
-    B.add(gb)
-    t_b_ready = B.frames + int(rng.integers(20, 45))
-    start_a = max(t_b_ready - f_pass, int(rng.integers(6, 20)))
-    A.state = (float(start_xz[0]), float(start_xz[1]), axis)
-    A.wait(start_a, fps)
-    A.add(ga)
+    start_a = _line_up(rng, fps, A, B, ga, gb, (start_xz[0], start_xz[1], axis), f_pass, (20, 45))
     f_contact = start_a + f_pass
     B.wait_until(f_contact - 1, fps)                 # B does not see it coming
     delay = 1.0 / fps + REACTION_DELAY
@@ -203,16 +224,8 @@ def sidestep(skel, rng, state, fps, side, delay, look_at) -> Group:
 
 def scene_dash_dodge(skel, rng, fps) -> Scene:
     """A dashes past B, who side-steps out of the way when A is about 2.5 m away."""
-    centre = rng.uniform(-1.0, 1.0, size=2)
-    axis = float(rng.uniform(-np.pi, np.pi))
-    fwd = np.array([np.sin(axis), np.cos(axis)])
-    leftA = np.array([np.cos(axis), -np.sin(axis)])
-    A = Performer("A", (0, 0, 0))
-    B = Performer("B", (0, 0, 0))
     # B walks in and stands at the centre, facing roughly towards the dasher
-    gb = run_to(skel, rng, (centre[0], centre[1], axis + np.pi + np.radians(rng.uniform(-25, 25))), fps,
-                WALK, int(rng.integers(1, 3)))
-    B.state = start_state(gb)
+    A, B, gb, centre, axis, fwd, leftA = _pass_by(skel, rng, fps, 25)
     n_steps = int(rng.integers(9, 12))
     first = int(rng.integers(0, 2))
     p0 = straight_run(DASH, n_steps, first, fps)
@@ -224,15 +237,8 @@ def scene_dash_dodge(skel, rng, fps) -> Scene:
     ga = Group(run_controls(plan, skel), [(a, b, "dash") for a, b, _ in plan.segments],
                plan.hubs, [], plan.end_state)
     rel = np.sum((plan.path - centre) * fwd, axis=1)
-    f_pass = int(np.argmin(np.abs(rel)))
     f_react_rel = int(np.argmin(np.abs(rel + float(rng.uniform(2.3, 2.8)))))   # dasher ~2.5 m away
-    B.wait(int(rng.integers(6, 20)), fps)
-    B.add(gb)
-    ready = B.frames + int(rng.integers(15, 40))
-    start_a = max(ready - f_react_rel, int(rng.integers(6, 20)))
-    A.state = (float(start_xz[0]), float(start_xz[1]), axis)
-    A.wait(start_a, fps)
-    A.add(ga)
+    start_a = _line_up(rng, fps, A, B, ga, gb, (start_xz[0], start_xz[1], axis), f_react_rel, (15, 40))
     f_react = start_a + f_react_rel
     B.wait_until(f_react, fps, look=plan.path[max(f_react_rel - 10, 0)])
     # dodge away from the dasher's line: to the side B is on relative to it
