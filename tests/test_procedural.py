@@ -1,5 +1,5 @@
 """Procedural capture generator (authoring.procedural): skeleton, determinism, label sidecars,
-the issue's acceptance metrics measured by the independent checker, hub poses, the CLI."""
+the acceptance metrics measured by the independent checker, hub poses, the CLI."""
 from __future__ import annotations
 
 import hashlib
