@@ -1,4 +1,4 @@
-"""Small layout helpers of the sample generators: headings, rounded positions, spacing."""
+"""Small layout functions of the sample generators: headings, rounded positions, spacing."""
 from __future__ import annotations
 
 import math
