@@ -340,22 +340,29 @@ def _load(take_bvh):
     return clip, labels
 
 
-def take_sheet(take_bvh, out_png, per_row=8, view="3q", order=None):
-    """One row per activity (its first occurrence; sit_down -> stand_up and pick_up ->
-    put_down shown in sequence), ``per_row`` frames spread over the segment."""
-    clip, labels = _load(take_bvh)
-    segs = labels["segments"]
-    order = order or ["start", "walk", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
-                      "pick_up", "carry", "put_down"]
+ACTIVITY_ORDER = ("start", "walk", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
+                  "pick_up", "carry", "put_down")
+
+
+def _activity_cells(segs, order, per_row):
+    """Cells of one row per label in ``order`` that occurs in ``segs``: ``per_row`` frames
+    spread over the longest of its first four occurrences (the one that shows the most)."""
     cells = []
     for lab in order:
         occ = [s for s in segs if s[2] == lab]
         if not occ:
             continue
-        # the longest occurrence among the first few shows the most
         a, b, _ = max(occ[:4], key=lambda s: s[1] - s[0])
         fr = np.linspace(a, b - 1, per_row).round().astype(int)
         cells += [(int(f), lab if i == 0 else "") for i, f in enumerate(fr)]
+    return cells
+
+
+def take_sheet(take_bvh, out_png, per_row=8, view="3q", order=None):
+    """One row per activity (its first occurrence; sit_down -> stand_up and pick_up ->
+    put_down shown in sequence), ``per_row`` frames spread over the segment."""
+    clip, labels = _load(take_bvh)
+    cells = _activity_cells(labels["segments"], order or ACTIVITY_ORDER, per_row)
     img = render_cells(clip, cells, per_row, view=view, props=labels.get("props", []),
                        title=f"crowdweave procedural capture - {Path(take_bvh).name} - {view} view")
     write_png(out_png, img)
@@ -391,17 +398,7 @@ def docs_sheet(take_bvh, out_png, per_row=8):
     """The committed contact sheet: one row per activity (three-quarter view) with a
     side-view close-up of one walk cycle underneath."""
     clip, labels = _load(take_bvh)
-    segs = labels["segments"]
-    order = ["start", "walk", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
-             "pick_up", "carry", "put_down"]
-    cells = []
-    for lab in order:
-        occ = [s for s in segs if s[2] == lab]
-        if not occ:
-            continue
-        a, b, _ = max(occ[:4], key=lambda s: s[1] - s[0])
-        fr = np.linspace(a, b - 1, per_row).round().astype(int)
-        cells += [(int(f), lab if i == 0 else "") for i, f in enumerate(fr)]
+    cells = _activity_cells(labels["segments"], ACTIVITY_ORDER, per_row)
     top = render_cells(clip, cells, per_row, view="3q", props=labels.get("props", []),
                        title=f"crowdweave procedural capture - {Path(take_bvh).name} - 3/4 view")
     cyc = render_cells(clip, _walk_cycle_cells(clip, labels, 10), 10, cell_w=top.shape[1] // 10 - 1,

@@ -26,7 +26,7 @@ def default_capture_dir() -> Path:
 def build_default_library(log=print, progress=True) -> Path:
     from tqdm import tqdm
 
-    from authoring.motion_graph.build import BUILDER_VERSION, BuildParams, build_graph
+    from authoring.motion_graph.build import BUILDER_VERSION, GraphBuildParams, build_graph
     from authoring.motion_graph.sources import load_takes
     from authoring.procedural import GENERATOR_VERSION, write_session
     cap = default_capture_dir()
@@ -39,7 +39,7 @@ def build_default_library(log=print, progress=True) -> Path:
     frames = sum(t.clip.num_frames for t in takes)
     log(f"building the default motion graph from {len(takes)} takes ({frames / 30:.0f} s)")
     with tqdm(total=frames, desc="frame distances", unit="frame", disable=quiet) as bar:
-        g = build_graph(takes, BuildParams(), progress=bar.update, log=log)
+        g = build_graph(takes, GraphBuildParams(), progress=bar.update, log=log)
     g.meta["generator_version"] = GENERATOR_VERSION
     g.meta["builder_version"] = BUILDER_VERSION
     out = default_library_path()

@@ -3,8 +3,8 @@
 A :class:`Take` holds one :class:`~runtime.motion.clip.Clip` per performer (same frame count
 and rate; frame ``i`` of every clip is the same instant, and each clip keeps its world
 placement in ``clip.origin``), the performers' names, per-performer label segments, the
-ground-truth interaction events (for tests of the episode detector, paper 003 section 4.1)
-and props (the box of a hand-over).
+ground-truth interaction events (for tests of the episode detector of Kim, Hwang, Hyun and
+Lee 2012, section 4.1) and props (the box of a hand-over).
 
 On disk a take is a directory::
 
@@ -55,6 +55,8 @@ class TakeError(ValueError):
 
 @dataclass(eq=False)
 class Take:
+    """A multi-person take: one clip per performer on a shared clock (see the module
+    docstring); checks on construction that the clips agree on frame count and rate."""
     name: str
     fps: float
     people: list                     # performer names
@@ -284,6 +286,8 @@ def find_take_dirs(path) -> list[Path]:
 
 
 def load_takes(paths, progress=None) -> list[Take]:
+    """Every take under ``paths`` (take directories or directories of them, see
+    :func:`find_take_dirs`); ``progress(1)`` after each."""
     out = []
     for p in paths:
         for d in find_take_dirs(p):

@@ -1,8 +1,8 @@
 """Benchmark: motion-graph build times, and the chunked frame distance against a per-pair loop.
 
-Issue 3 ("bench/graph_build.py"). Two tables, figures only (no asserts):
+Two tables, figures only (no asserts):
 
-1. **Graph builds** (``authoring.motion_graph.build.build_graph``, default ``BuildParams``
+1. **Graph builds** (``authoring.motion_graph.build.build_graph``, default ``GraphBuildParams``
    unless ``--threshold``): seconds to read the takes and to build the graph, with the graph's
    size, from
 
@@ -66,7 +66,7 @@ def build_row(name, inputs, params):
 
 
 def print_build_table(rows):
-    print("\nGraph builds (build_graph, default BuildParams)")
+    print("\nGraph builds (build_graph, default GraphBuildParams)")
     hdr = f"{'source':<38} {'takes':>5} {'frames':>7} {'input s':>8} {'load s':>7} {'build s':>8} " \
           f"{'frames/s':>9} {'nodes':>5} {'edges':>5} {'edge s':>7}"
     print(hdr)
@@ -126,16 +126,16 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--chunk", type=int, default=512, help="rows per distance chunk")
     ap.add_argument("--baseline-seconds", type=float, default=None, help="time budget of the per-pair loop")
-    ap.add_argument("--threshold", type=float, default=None, help="hub threshold, RMS cm (default BuildParams)")
+    ap.add_argument("--threshold", type=float, default=None, help="hub threshold, RMS cm (default GraphBuildParams)")
     args = ap.parse_args(argv)
     minutes = args.minutes if args.minutes is not None else (1.0 if args.quick else 5.0)
     budget = args.baseline_seconds if args.baseline_seconds is not None else (1.0 if args.quick else 3.0)
 
-    from authoring.motion_graph.build import BuildParams
+    from authoring.motion_graph.build import GraphBuildParams
     from authoring.motion_graph.distance import frame_features
     from authoring.procedural import write_session
 
-    params = BuildParams()
+    params = GraphBuildParams()
     if args.threshold is not None:
         params.threshold_cm = args.threshold
     print(f"crowdweave bench/graph_build.py  (numpy {np.__version__}, python {sys.version.split()[0]})")

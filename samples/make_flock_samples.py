@@ -31,40 +31,32 @@ def world(path, regions, obstacles=()):
     stage.GetRootLayer().Save()
 
 
+def scenario_text(name, description, flock, dim, count, region, extra=()):
+    """A flock sample's scenario.toml: ``count`` flocks named ``flock`` walk a ``dim``-D flock
+    motion graph (built from a recorded flock of 20 agents, 150 s) inside the region mesh
+    ``/World/Regions/<region>``; ``extra`` lines end the flock table."""
+    lines = [f'name = "{name}"', f'description = "{description}"', 'world = "world.usda"', "duration = 60.0",
+             "seed = 0", "", "[[flock]]", f'name = "{flock}"',
+             f"ddg = {{ dim = {dim}, agents = 20, seconds = 150.0, seed = 1 }}", f"count = {count}",
+             f'region = "/World/Regions/{region}"', *extra]
+    return "\n".join(lines) + "\n"
+
+
 def main():
     d2 = HERE / "flock_region_2d"
     d2.mkdir(exist_ok=True)
     # an L-shaped meadow: sheep flocks keep their centroids inside it
     world(d2 / "world.usda", [("meadow", [(-50, -50), (50, -50), (50, 0), (0, 0), (0, 50), (-50, 50)])],
           [("tree0", (25, 25, 1.5)), ("tree1", (35, 15, 1.0))])
-    (d2 / "scenario.toml").write_text("""name = "flock_region_2d"
-description = "Data-driven groups (paper 004): four sheep flocks walk a flock motion graph inside an L-shaped meadow"
-world = "world.usda"
-duration = 60.0
-seed = 0
-
-[[flock]]
-name = "sheep"
-ddg = { dim = 2, agents = 20, seconds = 150.0, seed = 1 }
-count = 4
-region = "/World/Regions/meadow"
-""")
+    (d2 / "scenario.toml").write_text(scenario_text(
+        d2.name, "Data-driven groups (paper 004): four sheep flocks walk a flock motion graph inside an "
+        "L-shaped meadow", "sheep", 2, 4, "meadow"))
     d3 = HERE / "flock_region_3d"
     d3.mkdir(exist_ok=True)
     world(d3 / "world.usda", [("sky", [(-45, -45), (45, -45), (45, 45), (-45, 45)])])
-    (d3 / "scenario.toml").write_text("""name = "flock_region_3d"
-description = "Data-driven groups (paper 004), 3D: three bird flocks fly a flock motion graph inside a box of sky"
-world = "world.usda"
-duration = 60.0
-seed = 0
-
-[[flock]]
-name = "birds"
-ddg = { dim = 3, agents = 20, seconds = 150.0, seed = 1 }
-count = 3
-region = "/World/Regions/sky"
-altitude = [5.0, 45.0]
-""")
+    (d3 / "scenario.toml").write_text(scenario_text(
+        d3.name, "Data-driven groups (paper 004), 3D: three bird flocks fly a flock motion graph inside a box "
+        "of sky", "birds", 3, 3, "sky", ("altitude = [5.0, 45.0]",)))
     for d, text in ((d2, "Four flocks of 20 sheep walk a 2D flock motion graph built from a recorded boids flock; "
                          "their centroids never leave the L-shaped meadow (a `crowdweave:role = \"region\"` mesh)."),
                     (d3, "Three flocks of 20 birds fly a 3D flock motion graph inside a 90 x 90 x 40 m box of sky.")):

@@ -1,4 +1,4 @@
-"""Issue 3 acceptance on the default library (procedural capture, seed 0)."""
+"""Acceptance figures of the default library (procedural capture, seed 0)."""
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path

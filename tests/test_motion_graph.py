@@ -1,8 +1,8 @@
-"""Motion graph builder (issue 3): distance, hubs, snapping, pruning, packs."""
+"""Motion graph builder: distance, hubs, snapping, pruning, packs."""
 import numpy as np
 import pytest
 
-from authoring.motion_graph.build import BuildParams, Take, build_graph, prune
+from authoring.motion_graph.build import GraphBuildParams, SourceClip, build_graph, prune
 from authoring.motion_graph.distance import aligned_distance_reference, distance_rows, frame_features
 from runtime.assets import AssetError
 from runtime.motion import SkeletonMismatchError, ops, quat
@@ -62,7 +62,7 @@ def cmu_graph(request):
         pytest.skip(f"CMU motion capture not found at {CMU_DIR}")
     from authoring.motion_graph.sources import load_takes
     takes = load_takes([CMU_DIR / f for f in MB_FILES])
-    return build_graph(takes, BuildParams(threshold_cm=8.0), log=lambda *a: None)
+    return build_graph(takes, GraphBuildParams(threshold_cm=8.0), log=lambda *a: None)
 
 
 def seam_report(g: MotionGraph):

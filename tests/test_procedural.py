@@ -1,5 +1,5 @@
 """Procedural capture generator (authoring.procedural): skeleton, determinism, label sidecars,
-the issue's acceptance metrics measured by the independent checker, hub poses, the CLI."""
+the acceptance metrics measured by the independent checker, hub poses, the CLI."""
 from __future__ import annotations
 
 import hashlib
@@ -11,9 +11,10 @@ import pytest
 from authoring.bvh import read_bvh
 from authoring.capture_quality import take_quality
 from authoring.procedural import LABELS, generate_session, make_skeleton, write_session
-from authoring.procedural import activities as act
 from authoring.procedural import body, gait
+from authoring.procedural.locomotion import run_controls
 from authoring.procedural.rig import solve
+from authoring.procedural.stance import H_STAND
 from runtime.motion import Clip
 from runtime.motion.skeleton import CMU_MB_NAMES, CMU_MB_PARENTS
 
@@ -81,7 +82,7 @@ def test_bvh_reads_back_as_family_a_with_the_default_scale(one_minute):
     text = (out / "take_000.bvh").read_text()
     assert "CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation" in text
     # the root stands ~0.96 m high in frame 0 (written in CMU units, read back in metres)
-    assert abs(m.clip.root_height[0] - act.H_STAND) < 1e-4
+    assert abs(m.clip.root_height[0] - H_STAND) < 1e-4
     assert m.clip.num_frames == manifest["takes"][0]["frames"]
 
 
@@ -164,7 +165,7 @@ def test_planted_ankles_are_exactly_still_between_heel_strike_and_heel_off():
         assert np.abs(a[:, [0, 2]] - a[0, [0, 2]]).max() < 1e-12
     # toes: the ball of the foot stays put through the toe rocker
     sk = make_skeleton()
-    c = act.run_controls(plan, sk)
+    c = run_controls(plan, sk)
     sol = solve(sk, c)
     assert sol.leg_reach_error.max() < 1e-9
     gp = Clip.from_world(sk, 30.0, sol.root_pos, sol.local).positions()

@@ -22,7 +22,7 @@ def run(args) -> int:
 
     from authoring.bvh import BVHError
     from authoring.cli import CLIError
-    from authoring.motion_graph.build import BuildParams, build_graph
+    from authoring.motion_graph.build import GraphBuildParams, build_graph
     from authoring.motion_graph.sources import LabelError, load_takes
     from runtime.motion import SkeletonMismatchError
 
@@ -35,7 +35,7 @@ def run(args) -> int:
         raise CLIError(str(e)) from None
     frames = sum(t.clip.num_frames for t in takes)
     print(f"{len(takes)} takes, {frames} frames ({frames / args.fps:.1f} s) at {args.fps:g} fps")
-    params = BuildParams(fps=args.fps)
+    params = GraphBuildParams(fps=args.fps)
     if args.threshold is not None:
         params.threshold_cm = args.threshold
     try:

@@ -23,7 +23,7 @@ def configure(parser):
                         help="length of one take in minutes (default 2)")
     parser.add_argument("--no-check", action="store_true", help="skip the quality check at the end")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    g = parser.add_argument_group("multi-character takes (paper 003)")
+    g = parser.add_argument_group("multi-character takes (Kim, Hwang, Hyun and Lee 2012)")
     g.add_argument("--takes", action="store_true",
                    help="write two- and three-person takes on a shared clock (OUT/<kind>_NNN/ with one BVH "
                         "per performer + take.json) instead of single-performer takes")

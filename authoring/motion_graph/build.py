@@ -1,4 +1,5 @@
-"""Build a snap-together motion graph from takes (issue 3; paper 000 sections 3.1, 3.3, 4).
+"""Build a snap-together motion graph from takes (Gleicher, Shin, Kovar and Jepsen 2003; the
+state subgraphs of Sung, Kovar and Gleicher 2005, sections 3.1, 3.3 and 4).
 
 Pipeline: takes (30 Hz clips + per-frame labels) -> joint positions -> windowed point-cloud
 features -> chunked distance, row-wise local minima under the threshold -> greedy hub poses
@@ -21,14 +22,15 @@ from .hubs import find_candidates, pick_hubs
 from .labels import NODE_LABEL, STATES, TRANSITIONS, state_classes, state_of_label
 from .snap import cut_edges, snap_take
 
-__all__ = ["Take", "BuildParams", "build_graph", "prune", "BUILDER_VERSION"]
+__all__ = ["SourceClip", "GraphBuildParams", "build_graph", "prune", "BUILDER_VERSION"]
 
 # Bump when the builder's output for the same takes changes (invalidates cached libraries).
 BUILDER_VERSION = 2
 
 
 @dataclass
-class Take:
+class SourceClip:
+    """One source clip of the graph builder: a take's motion with one label per frame."""
     name: str
     clip: Clip                 # 30 Hz (or the graph's fps), world placement irrelevant
     labels: list[str]          # one per frame
@@ -36,7 +38,8 @@ class Take:
 
 
 @dataclass
-class BuildParams:
+class GraphBuildParams:
+    """Parameters of :func:`build_graph`."""
     fps: float = 30.0
     threshold_cm: float = 6.0        # RMS point-cloud distance below which frames match
     half_window: int = 4             # distance window: 2 * half_window + 1 frames
@@ -54,8 +57,13 @@ def _joint_weights(sk: Skeleton, table: dict) -> np.ndarray:
     return np.array([float(table.get(n, 1.0)) for n in sk.names])
 
 
-def build_graph(takes: list[Take], params: BuildParams | None = None, progress=None, log=print) -> MotionGraph:
-    params = params or BuildParams()
+def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None, progress=None,
+                log=print) -> MotionGraph:
+    """The motion graph of ``takes`` (all at ``params.fps``, one skeleton family): hub poses,
+    snapped edges between them, states and labels, pruned to strongly connected state
+    subgraphs. ``progress(n)`` is called as frame distances are computed; ``log`` prints
+    the build's figures."""
+    params = params or GraphBuildParams()
     if not takes:
         raise ValueError("no takes to build a graph from")
     sk = takes[0].clip.skeleton
@@ -173,7 +181,8 @@ def _scc_largest(n, src, dst, mask_nodes, mask_edges):
 
 
 def prune(n_nodes, src, dst, node_state, edge_state, min_degree=2):
-    """Dead-end trimming that keeps state changes possible (paper 000 sections 3.2 and 4).
+    """Dead-end trimming that keeps state changes possible (Sung, Kovar and Gleicher 2005,
+    sections 3.2 and 4).
 
     Repeats until nothing changes:
     1. per state, keep only the largest strongly connected component of that state's

@@ -1,6 +1,7 @@
-"""Frame labels, locomotion states and node labels (paper 000, sections 3.2 and 4).
+"""Frame labels, locomotion states and node labels (Sung, Kovar and Gleicher 2005, sections
+3.2 and 4).
 
-A *state* is a locomotion subgraph of paper 000 ("a character who has just picked up a box
+A *state* is a locomotion subgraph of Sung et al. 2005 ("a character who has just picked up a box
 would be required to use one of the carry edges"): ``walking``, ``carrying``, ``sitting``.
 Every frame label maps either to a state or to a *transition* between two states. Pose
 constraints name *node labels* ("stand", "sit", "carry", "walk").

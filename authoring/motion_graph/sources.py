@@ -15,7 +15,7 @@ import numpy as np
 from runtime.motion import SkeletonMismatchError
 
 from ..bvh import read_bvh
-from .build import Take
+from .build import SourceClip
 
 __all__ = ["load_takes", "read_labels", "LabelError"]
 
@@ -54,7 +54,7 @@ def _resample_labels(labels: list[str], src_fps: float, n_out: int, dst_fps: flo
     return [labels[i] for i in idx]
 
 
-def _take_from_bvh(path: Path, fps: float, scale, labels_arg, sidecar: Path | None) -> Take:
+def _take_from_bvh(path: Path, fps: float, scale, labels_arg, sidecar: Path | None) -> SourceClip:
     m = read_bvh(path, scale=scale, fps=fps)
     n = m.clip.num_frames
     offset = 1 if m.dropped_first_frame else 0
@@ -66,10 +66,10 @@ def _take_from_bvh(path: Path, fps: float, scale, labels_arg, sidecar: Path | No
         src = read_labels(sidecar, m.source_frames)
     else:
         src = ["walk"] * m.source_frames
-    return Take(path.stem, m.clip, _resample_labels(src, m.source_fps, n, fps, offset), str(path))
+    return SourceClip(path.stem, m.clip, _resample_labels(src, m.source_fps, n, fps, offset), str(path))
 
 
-def load_takes(inputs, fps: float = 30.0, scale=None, labels=None, progress=None) -> list[Take]:
+def load_takes(inputs, fps: float = 30.0, scale=None, labels=None, progress=None) -> list[SourceClip]:
     """Takes from directories and BVH files, all resampled to ``fps``. Raises
     SkeletonMismatchError naming both files when families differ."""
     files: list[Path] = []

@@ -6,9 +6,9 @@ on a chair, picking up / carrying / putting down a box) together with per-frame 
 a capture session would. Footsteps are planned first and the legs are solved with analytic
 IK to them (:mod:`.gait`, :mod:`.rig`); activities start and end in shared hub poses so a
 snap-together motion graph can be built from the takes (:mod:`.activities`,
-:mod:`.session`).
+:mod:`.session`). Two- and three-person takes on one clock come from :mod:`.interactions`.
 """
 from .body import make_skeleton
-from .session import GENERATOR_VERSION, LABELS, Take, generate_session, write_session
+from .session import GENERATOR_VERSION, LABELS, GeneratedTake, generate_session, write_session
 
-__all__ = ["make_skeleton", "GENERATOR_VERSION", "LABELS", "Take", "generate_session", "write_session"]
+__all__ = ["make_skeleton", "GENERATOR_VERSION", "LABELS", "GeneratedTake", "generate_session", "write_session"]

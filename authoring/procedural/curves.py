@@ -1,12 +1,12 @@
-"""Smooth scalar curves used to shape motion: easing, bumps, Hermite segments, keyframe splines,
-and a one-sided smoothing that only ever lowers a signal (for reach limits)."""
+"""Smooth scalar curves used to shape motion: easing, ramps, bumps, Hermite segments, keyframe
+splines, and a one-sided smoothing that only ever lowers a signal (for reach limits)."""
 from __future__ import annotations
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
 __all__ = ["smoothstep", "smootherstep", "bump", "bump_integral", "hermite", "keyframes",
-           "lower_envelope", "gaussian", "wrap_angle"]
+           "lower_envelope", "gaussian", "ramp"]
 
 
 def smoothstep(x):
@@ -99,5 +99,6 @@ def lower_envelope(corr, sigma):
     return np.minimum(gaussian(eroded, sigma), 0.0)
 
 
-def wrap_angle(a):
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+def ramp(t, a, b):
+    """:func:`smootherstep` from 0 at time ``a`` to 1 at time ``b`` (a step when ``b <= a``)."""
+    return smootherstep((t - a) / max(b - a, 1e-6))

@@ -33,9 +33,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from runtime.motion import quat
+from runtime.motion.planar import wrap_angle
 
 from . import body
-from .curves import bump, bump_integral, hermite, smoothstep, smootherstep, wrap_angle
+from .curves import bump, bump_integral, hermite, smoothstep, smootherstep
 from .rig import qx, qy
 
 __all__ = ["Footprint", "GaitStyle", "WALK", "CARRY", "cadence", "step_length", "foot_tracks",

@@ -24,13 +24,16 @@ import numpy as np
 
 from runtime.assets import atomic_write_bytes
 from runtime.motion import Clip
+from runtime.motion.planar import wrap_angle
 
 from . import activities as act
 from . import body
 from .gait import WALK
-from .rig import Controls, solve
+from .group import concat_groups
+from .locomotion import run_group
+from .rig import solve
 
-__all__ = ["GENERATOR_VERSION", "LABELS", "Take", "generate_session", "write_session"]
+__all__ = ["GENERATOR_VERSION", "LABELS", "GeneratedTake", "generate_session", "write_session"]
 
 GENERATOR_VERSION = "1.0"
 LABELS = ("walk", "start", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
@@ -39,7 +42,9 @@ VOLUME_RADIUS = 4.0        # metres; walks bend back towards the centre beyond t
 
 
 @dataclass
-class Take:
+class GeneratedTake:
+    """One generated single-performer take: the clip, its label segments and hub frames,
+    the props (chair, box) and the rig solver's diagnostics."""
     clip: Clip
     segments: list
     hubs: list
@@ -64,7 +69,7 @@ def _steer_bias(state):
     if dist < 1e-6:
         return 0.0
     want = np.arctan2(-x, -z)
-    d = (want - th + np.pi) % (2 * np.pi) - np.pi
+    d = wrap_angle(want - th)
     gain = np.clip((dist - 0.5 * VOLUME_RADIUS) / VOLUME_RADIUS, 0.0, 1.0)
     return float(d * gain)
 
@@ -91,7 +96,7 @@ class _Scheduler:
     def _run(self, state, n_edges=None, style=WALK):
         n_edges = int(self.rng.integers(2, 5)) if n_edges is None else n_edges
         bias = _steer_bias(state) / (n_edges + 1)
-        return act.run_group(self.skel, self.rng, state, self.fps, style, n_edges, lambda: bias)
+        return run_group(self.skel, self.rng, state, self.fps, style, n_edges, lambda: bias)
 
     def next(self, state, remaining):
         """The next group from ``state`` given the seconds left in the take."""
@@ -128,27 +133,18 @@ class _Scheduler:
         return act.box_cycle(self.skel, self.rng, state, self.fps, lambda: bias)
 
 
-def _assemble(skel, groups, fps) -> Take:
-    parts, segs, hubs, props = [], [], [], []
-    f = 0
-    for i, g in enumerate(groups):
+def _assemble(skel, groups, fps) -> GeneratedTake:
+    c, segs, hubs, starts = concat_groups(groups)
+    props = []
+    for i, (g, f) in enumerate(zip(groups, starts)):
         last = i == len(groups) - 1
-        parts.append(g.controls if last else g.controls.slice(0, g.num_frames))
-        segs += [(a + f, b + f, lab) for a, b, lab in g.segments]
-        hubs += [(h + f, n) for h, n in g.hubs]
         for p in g.props:
             q = dict(p)
             q["start"] = int(p["start"]) + f
             q["end"] = int(min(p["end"] + f, f + g.num_frames + (1 if last else 0)))
             props.append(q)
-        f += g.num_frames
-    c = Controls.concat(parts)
     F = c.num_frames
-    # the final frame (end hub) belongs to the last segment
-    a, b, lab = segs[-1]
-    segs[-1] = (a, F, lab)
-    end_hub = "stand"
-    hubs.append((F - 1, end_hub))
+    hubs.append((F - 1, "stand"))             # the final frame is the end hub
     sol = solve(skel, c)
     clip = Clip.from_world(skel, fps, sol.root_pos, sol.local)
     diag = {
@@ -156,11 +152,11 @@ def _assemble(skel, groups, fps) -> Take:
         "max_arm_reach_error_m": float(sol.arm_reach_error.max()),
         "max_knee_flexion_deg": float(np.degrees(sol.knee_flexion.max())),
     }
-    return Take(clip, segs, hubs, props, diag)
+    return GeneratedTake(clip, segs, hubs, props, diag)
 
 
 def generate_session(minutes: float, seed: int, fps: float = 30.0, take_minutes: float = 2.0,
-                     progress=None) -> list[Take]:
+                     progress=None) -> list[GeneratedTake]:
     """Generate the takes of a session in memory. ``progress(seconds)`` is called as
     motion is produced."""
     if not (minutes > 0):
