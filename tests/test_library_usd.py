@@ -18,12 +18,12 @@ TOL = 1e-4  # metres
 @pytest.fixture(scope="module")
 def small_graph(tmp_path_factory):
     """A small graph from 30 s of generated capture (about 5 nodes, 40+ edges; ~3 s)."""
-    from authoring.motion_graph.build import BuildParams, build_graph
+    from authoring.motion_graph.build import GraphBuildParams, build_graph
     from authoring.motion_graph.sources import load_takes
     from authoring.procedural import write_session
     d = tmp_path_factory.mktemp("capture")
     write_session(d, 0.5, 3)
-    g = build_graph(load_takes([d]), BuildParams(), log=lambda *a: None)
+    g = build_graph(load_takes([d]), GraphBuildParams(), log=lambda *a: None)
     assert g.num_edges >= 4 and g.num_nodes >= 2
     return g
 
