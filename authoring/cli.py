@@ -11,6 +11,8 @@ import argparse
 import importlib
 import sys
 
+from authoring.commands import CLIError
+
 # name -> (module, one-line help). Order is the order shown by --help.
 COMMANDS = {
     "demo": ("authoring.commands.demo", "the main job: generate the default capture and summarise it"),
@@ -22,10 +24,6 @@ COMMANDS = {
     "world": ("authoring.commands.world", "check a world stage: obstacles, markers, unusable prims"),
     "bake": ("authoring.commands.bake", "plan a sample scenario and write the baked crowd to USD"),
 }
-
-
-class CLIError(Exception):
-    """A user-facing error: printed without a traceback, exit code 2."""
 
 
 def _build_parser(argv) -> tuple[argparse.ArgumentParser, dict]:

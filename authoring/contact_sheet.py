@@ -227,7 +227,6 @@ def render_cells(clip, cells, cols, cell_w=150, cell_h=210, view="side", props=(
         cv.text(8, 8, title, (20, 20, 20), scale=2)
     mpp = metres_per_px or 1.95 / (cell_h - 30)
     M = _view_matrix(view)
-    end_joint = [j for j, _ in sk.end_sites]
     for ci, (f, caption) in enumerate(cells):
         r, cidx = divmod(ci, cols)
         ox = 4 + cidx * cell_w

@@ -1,4 +1,4 @@
-"""Building the probabilistic roadmap of a world (paper 000 section 3.2; Kavraki & Latombe 1994).
+"""Building the probabilistic roadmap of a world (Sung, Kovar and Gleicher 2005, section 3.2; Kavraki & Latombe 1994).
 
 Nodes are random free positions: uniform samples over the world's bounds (grown by
 ``connect_distance``) whose clearance exceeds the character ``radius`` (free space = outside
@@ -32,8 +32,7 @@ __all__ = ["build_roadmap", "load_or_build_roadmap", "NODES_PER_M2", "MIN_NODES"
 WALK_RADIUS = 0.6         # obstacles grown by a walking character's bounding cylinder (the default
                           # library's walking frames: median 0.38 m, 99th percentile 0.58 m)
 
-NODES_PER_M2 = 2.0       # auto sample count: two nodes per m^2 of free ground (at 0.5, theater40's
-                         # left aisle did not reach the front rows: 12 of 40 routes crossed the hall)
+NODES_PER_M2 = 2.0       # auto sample count: two nodes per m^2 of free ground (docs/decisions.md)
 MIN_NODES = 50
 BRIDGE_FRACTION = 0.2    # share of nodes from the bridge test
 _BATCH = 4096
@@ -53,27 +52,27 @@ def _sample_nodes(env, box, n, radius, rng, progress):
     n_bridge = int(round(BRIDGE_FRACTION * n)) if env.num_obstacles else 0
     out, got, tries = [], 0, 0
     sigma = max(2.0 * radius, 0.25)
+
+    def keep(points):
+        nonlocal got
+        out.append(points)
+        got += len(points)
+        if progress:
+            progress("sampling", got, n)
+
     while got < n_bridge and tries < 8:  # bridge samples are rare in open worlds: bounded effort
         a = rng.uniform((x0, z0), (x1, z1), size=(_BATCH, 2))
         b = a + rng.normal(scale=sigma, size=(_BATCH, 2))
         m = 0.5 * (a + b)
         da, db = env.distance(a) <= radius, env.distance(b) <= radius
         cand = m[da & db]
-        cand = cand[env.distance(cand) > radius][: n_bridge - got]
-        out.append(cand)
-        got += len(cand)
+        keep(cand[env.distance(cand) > radius][: n_bridge - got])
         tries += 1
-        if progress:
-            progress("sampling", got, n)
     tries = 0
     while got < n:
         p = rng.uniform((x0, z0), (x1, z1), size=(_BATCH, 2))
-        p = p[env.distance(p) > radius][: n - got]
-        out.append(p)
-        got += len(p)
+        keep(p[env.distance(p) > radius][: n - got])
         tries += 1
-        if progress:
-            progress("sampling", got, n)
         if tries > 200 and got < 0.01 * tries * _BATCH:
             raise ValueError(f"almost no free space for a character of radius {radius} m in the world's bounds")
     return np.concatenate(out) if out else np.zeros((0, 2))

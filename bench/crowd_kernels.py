@@ -1,4 +1,4 @@
-"""Benchmark: the goal-directed crowd planner (paper 000) with and without its compiled kernels.
+"""Benchmark: the goal-directed crowd planner (Sung, Kovar and Gleicher 2005) with and without its compiled kernels.
 
 Three per-step paths of ``runtime.crowd`` are compiled with numba when it is installed:
 

@@ -1,4 +1,4 @@
-"""Benchmark: paper 000's Table 1 and its Figures 11 and 12 on the sample scenarios.
+"""Benchmark: the Table 1 and its Figures 11 and 12 on the sample scenarios.
 
 * **Table 1** -- for every sample (``samples/<name>``, loaded with
   ``authoring.commands.bake.load_sample``, planned with ``runtime.crowd.scheduler.plan_scenario``):
@@ -158,7 +158,7 @@ def warm_up(graph):
 def table1(names, quick, quiet):
     from authoring.commands.bake import load_sample
     from runtime.crowd.scenario import parse_scenario
-    print("Table 1 (paper 000): goal-directed synthesis of the sample scenarios"
+    print("Table 1 (Sung, Kovar and Gleicher 2005): goal-directed synthesis of the sample scenarios"
           + (f"  [--quick: at most {QUICK_CHARACTERS} characters each; grids 10 x 6]" if quick else ""))
     head = (f"{'ex':<3} {'sample':<14} {'chars':>5} {'duration':>9} {'synth/char':>11} {'total':>9} "
             f"{'max char':>9} {'warn':>5} {'pass':>4}  {'paper: chars dur synth/char total':<34} {'total/paper':>11} "
@@ -210,7 +210,7 @@ def fig11(quick, quiet, spacings=None):
     spacings = spacings or ((2.2, 3.0, 3.5) if quick else FIG11_SPACINGS)
     graph = default_graph()
     labels = set(graph.node_labels_all())
-    print(f"\nFigure 11 (paper 000): mean synthesis time per character vs grid spacing, {cols * rows} characters "
+    print(f"\nFigure 11 (Sung, Kovar and Gleicher 2005): mean synthesis time per character vs grid spacing, {cols * rows} characters "
           f"({cols} x {rows} grid to a translated grid, perturbed targets)")
     head = (f"{'spacing':>8} {'synth/char':>11} {'total':>9} {'duration':>9} {'warn':>5} {'vs widest':>10} "
             f"{'reused':>8}  checker")
@@ -232,7 +232,7 @@ def fig12(quick, quiet):
     if quick:
         sc = prefix(sc, 2 * QUICK_CHARACTERS)
     scales = (0.5, 1.0, 4.0) if quick else FIG12_SCALES
-    print(f"\nFigure 12 (paper 000): synthesis time vs adjustment tolerance eps, spell70 ({len(sc.characters)} characters); "
+    print(f"\nFigure 12 (Sung, Kovar and Gleicher 2005): synthesis time vs adjustment tolerance eps, spell70 ({len(sc.characters)} characters); "
           f"eps x 1 = ({sc.epsilon[0] * 100:g} cm/s, {sc.epsilon[1]:g} deg/s, {sc.epsilon[2]:.4g} s/s)")
     head = f"{'eps x':>6} {'total':>9} {'synth/char':>11} {'warn':>5} {'vs eps x1':>10}  checker (at the scaled eps)"
     print(head)
@@ -247,7 +247,7 @@ def fig12(quick, quiet):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description="Paper 000 Table 1 and Figures 11-12 on the sample scenarios.")
+    ap = argparse.ArgumentParser(description="Table 1 and Figures 11-12 on the sample scenarios.")
     ap.add_argument("--quick", action="store_true", help="fewer characters, smaller grids, fewer sweep points")
     ap.add_argument("--only", default=None, help="one sample name, or table1 / fig11 / fig12")
     ap.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -1,4 +1,4 @@
-"""Benchmark: pose evaluation for a whole crowd (issue 5, point 3), vectorized vs per character.
+"""Benchmark: pose evaluation for a whole crowd, vectorized vs per character.
 
 N characters (default 10,000) on the default motion library, each with two consecutive ticks'
 states (library frames a, b = a + 1, blend t, planar root) and a render ``alpha`` between the

@@ -1,4 +1,4 @@
-"""Online load test of the runtime (issue 5): N characters, each given a new random reachable
+"""Online load test of the runtime: N characters, each given a new random reachable
 goal every 3-8 s, for T simulated seconds.
 
 Prints p50/p99/max of the tick time split into planning and the rest, how far planning went

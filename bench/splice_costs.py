@@ -1,4 +1,4 @@
-"""Benchmark: the splice cost of paper 000 (Eq. 1-2) over one search iteration's motion pairs.
+"""Benchmark: the splice cost of Sung, Kovar and Gleicher 2005 (Eq. 1-2) over one search iteration's motion pairs.
 
 ``runtime.crowd.planner.costs.pair_costs`` costs n_m perturbed (M_f, M_b) pairs every iteration of the
 randomized search: every prefix/suffix split meeting at a node, the per-pair minimum. Compared

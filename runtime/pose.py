@@ -1,4 +1,4 @@
-"""Pose evaluation for every character in one vectorized pass (issue 5, point 3).
+"""Pose evaluation for every character in one vectorized pass .
 
 A character's state on a tick is what a track holds for that tick (``runtime.crowd.tracks``):
 two library frames ``a``, ``b``, a blend ``t`` (the pose is ``slerp(a, b, t)``) and its planar

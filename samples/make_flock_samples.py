@@ -49,13 +49,13 @@ def main():
     world(d2 / "world.usda", [("meadow", [(-50, -50), (50, -50), (50, 0), (0, 0), (0, 50), (-50, 50)])],
           [("tree0", (25, 25, 1.5)), ("tree1", (35, 15, 1.0))])
     (d2 / "scenario.toml").write_text(scenario_text(
-        d2.name, "Data-driven groups (paper 004): four sheep flocks walk a flock motion graph inside an "
+        d2.name, "Data-driven groups (Lai, Chenney and Fan 2005): four sheep flocks walk a flock motion graph inside an "
         "L-shaped meadow", "sheep", 2, 4, "meadow"))
     d3 = HERE / "flock_region_3d"
     d3.mkdir(exist_ok=True)
     world(d3 / "world.usda", [("sky", [(-45, -45), (45, -45), (45, 45), (-45, 45)])])
     (d3 / "scenario.toml").write_text(scenario_text(
-        d3.name, "Data-driven groups (paper 004), 3D: three bird flocks fly a flock motion graph inside a box "
+        d3.name, "Data-driven groups (Lai, Chenney and Fan 2005), 3D: three bird flocks fly a flock motion graph inside a box "
         "of sky", "birds", 3, 3, "sky", ("altitude = [5.0, 45.0]",)))
     for d, text in ((d2, "Four flocks of 20 sheep walk a 2D flock motion graph built from a recorded boids flock; "
                          "their centroids never leave the L-shaped meadow (a `crowdweave:role = \"region\"` mesh)."),

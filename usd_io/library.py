@@ -137,7 +137,7 @@ def _columns(E: int, columns: int | None) -> int:
     return max(1, min(cols, E))
 
 
-# -- metadata helpers -------------------------------------------------------------------------------
+# -- metadata -------------------------------------------------------------------------------
 def _vt_value(v):
     """Plain Python value -> something a VtDictionary stores with a type (None -> omitted)."""
     if isinstance(v, dict):

@@ -83,7 +83,7 @@ def joint_paths(skeleton: Skeleton) -> list[str]:
 
 
 def define_skel_root(stage: Usd.Stage, path) -> UsdSkel.Root:
-    """A SkelRoot prim with SkelBindingAPI applied (its skel:skeleton is set by bind helpers)."""
+    """A SkelRoot prim with SkelBindingAPI applied (its skel:skeleton is set when the skeleton is bound)."""
     root = UsdSkel.Root.Define(stage, Sdf.Path(str(path)))
     UsdSkel.BindingAPI.Apply(root.GetPrim())
     return root

@@ -12,7 +12,6 @@ binary crate, ``.usd`` crate (USD's default).
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from pxr import Sdf, Tf, Usd, UsdGeom

@@ -170,7 +170,7 @@ class _Reader:
         if dp and dp.GetPath().GetParentPath() == "/":
             self.scopes.add(f"{dp.GetPath()}/Obstacles")
 
-    # -- helpers --------------------------------------------------------------------------------
+    # -- internals --------------------------------------------------------------------------------
     def error(self, prim, reason):
         self.issues.append(WorldIssue(str(prim.GetPath()), reason, True))
 

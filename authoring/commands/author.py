@@ -31,7 +31,7 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     if getattr(args, "_unavailable", False):
         raise CLIError(f"'author {args.kind}' is not available in this build yet")
     return args._module.run(args)

@@ -28,7 +28,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from authoring.boids import BoidsParams, record_flock
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from authoring.ddg import DDGBuildParams, build_ddg
     from runtime.flock.ddg import save_ddg
 

@@ -21,7 +21,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from authoring.bvh import BVHError
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from authoring.motion_graph.build import GraphBuildParams, build_graph
     from authoring.motion_graph.sources import LabelError, load_takes
     from runtime.motion import SkeletonMismatchError

@@ -35,7 +35,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from authoring.bvh import BVHError
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from authoring.patches.build import PatchBuildError, PatchBuildParams, build_patch_library
     from authoring.takes import TakeError, find_take_dirs, load_take
     from runtime.assets import AssetError

@@ -1,5 +1,5 @@
 """``crowdweave author roadmap world.usda --out roadmap.cwpack``: probabilistic roadmap of a world
-(paper 000 section 3.2), built offline for the runtime to load."""
+(Sung, Kovar and Gleicher 2005, section 3.2), built offline for the runtime to load."""
 from __future__ import annotations
 
 import sys
@@ -22,7 +22,7 @@ def configure(p):
 def run(args) -> int:
     from tqdm import tqdm
 
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from authoring.roadmap import build_roadmap
     from usd_io.world import WorldError, read_world
 

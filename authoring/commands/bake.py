@@ -118,7 +118,7 @@ def bake_tilings(sc, graph, env, fps, num_frames):
 def run(args) -> int:
     from tqdm import tqdm
 
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from runtime.assets import AssetError
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scenario import ScenarioError

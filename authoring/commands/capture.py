@@ -36,7 +36,7 @@ def configure(parser):
 
 
 def run(args) -> int:
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
 
     if getattr(args, "takes", False) or getattr(args, "duet", None):
         return _run_takes(args)
@@ -90,7 +90,7 @@ def _run_takes(args) -> int:
     from tqdm import tqdm
 
     from authoring.bvh import BVHError
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from authoring.procedural.interactions import SCENES
     from authoring.takes import DEFAULT_KINDS, TakeError, import_cmu_duet, write_takes
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from authoring.cli import CLIError
+from authoring.commands import CLIError
 
 _DROP = {"auto": "auto", "yes": True, "no": False}
 

@@ -61,7 +61,7 @@ def run(args) -> int:
     print(f"  {s['nodes']} hub nodes, {s['edges']} edges, {s['seconds']} s of motion, "
           f"median parallel edges {s['parallel']['median_parallel']:g}")
     print(f"  node labels: {s['node_labels']}")
-    print(f"  states: " + ", ".join(f"{k} {v.get('edges', 0)} edges" for k, v in s["states"].items()))
+    print("  states: " + ", ".join(f"{k} {v.get('edges', 0)} edges" for k, v in s["states"].items()))
     sys.stdout.flush()
     if args.no_window:
         return 0

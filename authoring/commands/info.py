@@ -61,7 +61,7 @@ def _print(d, indent=0):
 
 def run(args) -> int:
     from authoring.bvh import BVHError, bvh_summary
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from runtime.assets import AssetError
     p = Path(args.path)
     try:

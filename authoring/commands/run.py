@@ -25,7 +25,7 @@ def default_sample():
 
 
 def run(args) -> int:
-    from authoring.cli import CLIError
+    from authoring.commands import CLIError
     from authoring.commands.bake import load_sample
     from runtime.assets import AssetError
     from runtime.crowd.scenario import ScenarioError

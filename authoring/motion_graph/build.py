@@ -15,7 +15,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from runtime.motion import Clip, Skeleton, SkeletonMismatchError
-from runtime.motion.graph import MotionGraph, edge_tables
+from runtime.motion.graph import MotionGraph
 
 from .distance import DEFAULT_JOINT_WEIGHTS, frame_features
 from .hubs import find_candidates, pick_hubs

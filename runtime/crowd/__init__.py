@@ -1,1 +1,1 @@
-"""Goal-directed crowds (paper 000): environment, roadmap, seed planning, search and splicing."""
+"""Goal-directed crowds (Sung, Kovar and Gleicher 2005): environment, roadmap, seed planning, search and splicing."""

@@ -1,4 +1,4 @@
-"""The environment of goal-directed crowds (paper 000, section 3): obstacle footprints on the
+"""The environment of goal-directed crowds (Sung, Kovar and Gleicher 2005, section 3): obstacle footprints on the
 ground plane and the world's markers (seats, boxes, spawn points, regions).
 
 Obstacles are 2D footprints in (x, z) metres: simple counter-clockwise polygons and circles
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import PolygonSet, _ps, chunk_rows, polygon_area
+from .geometry import PolygonSet, chunk_rows, point_segment_distance_xz, polygon_area
 
 __all__ = ["Marker", "Environment", "SDFGrid", "MARKER_ROLES"]
 
@@ -296,7 +296,7 @@ class Environment:
                 abx, abz = (p1x - p0x)[:, None], (p1z - p0z)[:, None]
                 l2 = abx * abx + abz * abz
                 inv = np.divide(1.0, l2, out=np.zeros_like(l2), where=l2 > 0)
-                d = _ps(cx[None, :], cz[None, :], p0x[:, None], p0z[:, None], abx, abz, inv)
+                d = point_segment_distance_xz(cx[None, :], cz[None, :], p0x[:, None], p0z[:, None], abx, abz, inv)
                 good &= np.all((d >= cr[None, :] + rr[:, None]) & (d > cr[None, :]), axis=1)
             ok[sl] = good
         return ok.reshape(shape)
@@ -322,7 +322,8 @@ class Environment:
                 abx, abz = p1x - p0x, p1z - p0z
                 l2 = abx * abx + abz * abz
                 inv = np.divide(1.0, l2, out=np.zeros_like(l2), where=l2 > 0)
-                dc = _ps(self.circles[None, :, 0], self.circles[None, :, 1], p0x, p0z, abx, abz, inv) - self.circles[None, :, 2]
+                dc = point_segment_distance_xz(self.circles[None, :, 0], self.circles[None, :, 1], p0x, p0z, abx, abz,
+                                               inv) - self.circles[None, :, 2]
                 d = np.minimum(d, np.maximum(dc, 0.0).min(axis=1))
             out[sl] = d
         return out.reshape(shape)

@@ -28,7 +28,7 @@ import numpy as np
 
 __all__ = [
     "GeometryError", "Footprint", "PolygonSet", "polygon_area", "convex_hull", "circle_polygon",
-    "point_segment_distance", "segment_segment_distance", "units_matrix", "footprint_points",
+    "point_segment_distance", "point_segment_distance_xz", "segment_segment_distance", "units_matrix", "footprint_points",
     "footprint_cube", "footprint_sphere", "footprint_cylinder", "footprint_capsule", "chunk_rows",
 ]
 
@@ -108,7 +108,7 @@ def point_segment_distance(p, a, b) -> np.ndarray:
     return np.hypot(d[..., 0], d[..., 1])
 
 
-def _ps(px, pz, ax, az, abx, abz, inv):
+def point_segment_distance_xz(px, pz, ax, az, abx, abz, inv):
     """Point-segment distance on components (``inv`` = 1/|ab|^2, 0 for a degenerate segment)."""
     dx = px - ax
     dz = pz - az
@@ -127,9 +127,10 @@ def _segseg(p0x, p0z, p1x, p1z, q0x, q0z, q1x, q1z):
     dqx, dqz = q1x - q0x, q1z - q0z
     ip = _inv_len2(dpx, dpz)
     iq = _inv_len2(dqx, dqz)
-    d = np.minimum(_ps(p0x, p0z, q0x, q0z, dqx, dqz, iq), _ps(p1x, p1z, q0x, q0z, dqx, dqz, iq))
-    d = np.minimum(d, _ps(q0x, q0z, p0x, p0z, dpx, dpz, ip))
-    d = np.minimum(d, _ps(q1x, q1z, p0x, p0z, dpx, dpz, ip))
+    d = np.minimum(point_segment_distance_xz(p0x, p0z, q0x, q0z, dqx, dqz, iq),
+                   point_segment_distance_xz(p1x, p1z, q0x, q0z, dqx, dqz, iq))
+    d = np.minimum(d, point_segment_distance_xz(q0x, q0z, p0x, p0z, dpx, dpz, ip))
+    d = np.minimum(d, point_segment_distance_xz(q1x, q1z, p0x, p0z, dpx, dpz, ip))
     o1 = dpx * (q0z - p0z) - dpz * (q0x - p0x)
     o2 = dpx * (q1z - p0z) - dpz * (q1x - p0x)
     o3 = dqx * (p0z - q0z) - dqz * (p0x - q0x)
@@ -191,7 +192,7 @@ class PolygonSet:
 
     def signed_distance(self, px, pz) -> np.ndarray:
         """(n, P) signed distance of points (column vectors (n, 1)) to each polygon (negative inside)."""
-        d = _ps(px, pz, self.ax, self.az, self.abx, self.abz, self.inv)
+        d = point_segment_distance_xz(px, pz, self.ax, self.az, self.abx, self.abz, self.inv)
         d = np.minimum.reduceat(d, self.starts, axis=1)
         return np.where(self._inside(px, pz), -d, d)
 
@@ -233,7 +234,7 @@ class PolygonSet:
         dx, dz = p1x - p0x, p1z - p0z
         l2 = dx * dx + dz * dz
         inv = np.divide(1.0, l2, out=np.zeros_like(l2), where=l2 > 0)
-        dc = _ps(self.center[None, :, 0], self.center[None, :, 1], p0x[:, None], p0z[:, None],
+        dc = point_segment_distance_xz(self.center[None, :, 0], self.center[None, :, 1], p0x[:, None], p0z[:, None],
                  dx[:, None], dz[:, None], inv[:, None])
         rows, polys = np.nonzero(dc <= self.bound[None, :] + radius[:, None])
         if len(rows) == 0:
@@ -386,18 +387,24 @@ def footprint_sphere(T, radius: float, n: int = CIRCLE_SIDES) -> Footprint:
     return Footprint("polygon", polygon=convex_hull(c + _unit_circle(n) @ L.T))
 
 
+def _round_solid(T, radius_bottom, radius_top, height):
+    """The checked matrix, radii and height of a cylinder or capsule (not both radii 0)."""
+    T = _check_matrix(T)
+    rb = _finite_nonneg("radius", radius_bottom)
+    rt = _finite_nonneg("radius", radius_top)
+    h = _finite_nonneg("height", height)
+    if max(rb, rt) == 0:
+        raise GeometryError("zero footprint area (radius is 0)")
+    return T, rb, rt, h
+
+
 def footprint_cylinder(T, radius_bottom: float, radius_top: float, height: float, axis: str = "Y",
                        n: int = CIRCLE_SIDES) -> Footprint:
     """Cylinder or frustum (``radius_top`` may differ; a cone has ``radius_top = 0``) along the
     local ``axis``, centred at the origin. A circle when its world axis is vertical and its
     cross-section projects round; otherwise the hull of both end disks' circumscribed polygons."""
-    T = _check_matrix(T)
-    rb = _finite_nonneg("radius", radius_bottom)
-    rt = _finite_nonneg("radius", radius_top)
-    h = _finite_nonneg("height", height)
+    T, rb, rt, h = _round_solid(T, radius_bottom, radius_top, height)
     e, u, v = _axis(axis)
-    if max(rb, rt) == 0:
-        raise GeometryError("zero footprint area (radius is 0)")
     ends = np.stack([-0.5 * h * e, 0.5 * h * e])
     pe = _project(T, ends)
     Bd = T[[0, 2], :3] @ np.stack([u, v], axis=1)  # projected cross-section basis (2, 2)
@@ -414,13 +421,8 @@ def footprint_capsule(T, radius_bottom: float, radius_top: float, height: float,
                       n: int = CIRCLE_SIDES) -> Footprint:
     """Capsule: a spine of length ``height`` along ``axis`` with spherical caps (radii may
     differ); footprint = hull of the two caps' projected balls (a circle when upright and round)."""
-    T = _check_matrix(T)
-    rb = _finite_nonneg("radius", radius_bottom)
-    rt = _finite_nonneg("radius", radius_top)
-    h = _finite_nonneg("height", height)
+    T, rb, rt, h = _round_solid(T, radius_bottom, radius_top, height)
     e, _, _ = _axis(axis)
-    if max(rb, rt) == 0:
-        raise GeometryError("zero footprint area (radius is 0)")
     c0, L = _ball_outline(T, -0.5 * h * e, 1.0, n)
     c1, _ = _ball_outline(T, 0.5 * h * e, 1.0, n)
     rr = _round_radius(L @ L.T)

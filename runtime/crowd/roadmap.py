@@ -1,4 +1,4 @@
-"""Probabilistic roadmap (PRM; Kavraki & Latombe 1994) over the free ground, as paper 000
+"""Probabilistic roadmap (PRM; Kavraki & Latombe 1994) over the free ground, as Sung, Kovar and Gleicher 2005
 section 3.2 uses it to get way points for the seed motions.
 
 The roadmap is built offline (``authoring.roadmap.build_roadmap``): nodes are random free
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, save_pack
+from ..assets import AssetError, load_pack, pack_fields, save_pack
 from .environment import Environment
 
 __all__ = ["Roadmap", "RoadmapError", "PACK_KIND", "PACK_VERSION"]
@@ -125,17 +125,13 @@ class Roadmap:
     @classmethod
     def load(cls, path) -> "Roadmap":
         pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
-        try:
+        with pack_fields(path, "roadmap pack is inconsistent"):
             meta = dict(pk.meta)
             radius = float(meta.pop("radius"))
             cd = float(meta.pop("connect_distance"))
             fp = meta.pop("env_fingerprint") or None
             rm = cls(pk.arrays["nodes"], pk.arrays["indptr"], pk.arrays["indices"], pk.arrays["weights"],
                      radius, cd, fp, meta)
-        except AssetError:
-            raise
-        except Exception as e:
-            raise AssetError(path, f"roadmap pack is inconsistent: {type(e).__name__}: {e}") from None
         rm.validate(path)
         return rm
 

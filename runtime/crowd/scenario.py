@@ -1,4 +1,4 @@
-"""Scenarios: ``samples/<name>/scenario.toml`` (issue 4, point 6).
+"""Scenarios: ``samples/<name>/scenario.toml`` .
 
 ```toml
 name = "meet20"
@@ -76,7 +76,7 @@ class CharacterSpec:
 
 @dataclass
 class FlockSpec:
-    """``[[flock]]``: ``count`` flocks walking one flock motion graph (paper 004).
+    """``[[flock]]``: ``count`` flocks walking one flock motion graph (Lai, Chenney and Fan 2005).
 
     ``ddg`` is a pack path (relative to the scenario) or a recording recipe
     ``{dim, agents, seconds, seed}`` that the authoring tools record and build once (cached);
@@ -94,7 +94,7 @@ class FlockSpec:
 
 @dataclass
 class TilingSpec:
-    """``[[tiling]]``: a tiled interaction zone (paper 003, interactive tiling; see
+    """``[[tiling]]``: a tiled interaction zone (Kim, Hwang, Hyun and Lee 2012, interactive tiling; see
     :mod:`runtime.tiling.zone`). ``zone`` is a ``crowdweave:role = "region"`` prim whose
     outline's bounding rectangle is the zone (``bounds`` = x0, z0, x1, z1); ``patches`` a
     motion-patch pack (path relative to the scenario) or ``"synthetic"`` (built from the motion

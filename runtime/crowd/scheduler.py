@@ -1,4 +1,4 @@
-"""Planning a whole scenario: characters one after another (paper 000, section 3.1).
+"""Planning a whole scenario: characters one after another (Sung, Kovar and Gleicher 2005, section 3.1).
 
 Characters are planned in an order that respects relative timing; each planned character
 enters the space-time index and is a moving obstacle for the ones after it. A character's
@@ -228,7 +228,7 @@ def seat_hold(c, graph, fps: float) -> int:
     has no need to leave yet: getting up and walking straight to its first goal at a brisk
     pace (``HOLD_GET_UP``, ``HOLD_SPEED``) still arrives before the goal's window opens.
     Characters are planned one after another
-    (paper 000, section 3.1), and one planned later is invisible to those before it -- but a
+    (Sung, Kovar and Gleicher 2005, section 3.1), and one planned later is invisible to those before it -- but a
     seated one cannot step aside: a neighbour sitting down next to it would turn across its
     place. So until it is planned its seat is held for those frames: earlier characters
     treat it as sitting there (0 when it does not start seated or its first goal has no

@@ -1,4 +1,4 @@
-"""Space-time index of planned characters' bounding cylinders (paper 000, section 3.2).
+"""Space-time index of planned characters' bounding cylinders (Sung, Kovar and Gleicher 2005, section 3.2).
 
 Characters are planned one after another; the ones already planned are moving obstacles.
 Their per-frame cylinders (x, z, radius) live in a uniform grid over (x, z, t): a cell is
@@ -10,15 +10,13 @@ Storage is a spatial hash with chaining, as game engines keep broad-phase grids:
 append-only arrays, and ``head[hash(key)]`` / ``next[row]`` thread every row onto the chain of
 its bucket. An insert appends and links its rows (vectorized: the batch is grouped by bucket);
 a query walks all its keys' chains in lock step, one gather per step, so it costs a few random
-reads per key, whatever the number of rows (a sorted-run index did two binary searches per key
-per run: ``bench/crowd_table.py`` spent a third of grid500's planning in them). Removing a
+reads per key, whatever the number of rows (docs/decisions.md). Removing a
 character only bumps its version (O(1)); its rows stay until the arrays are full, when a
 compaction drops them and the rows of frames before ``forget_before(frame)``, so a running
 world never grows without bound.
 
-The query is compiled with numba when it is installed (:func:`_hits_compiled`: one loop over
-the query's 9 keys per sample, walking each chain to its end; ``bench/crowd_table.py``'s
-grid500 spent 7 of 46 profiled seconds in the numpy lock-step walk); without numba the numpy
+The query is compiled with numba when it is installed (one loop over the query's 9 keys per
+sample, walking each chain to its end; :data:`ENABLED` switches it off); without numba the numpy
 walk runs. Both return the same (sample, owner) pairs, in different orders.
 
 Limits: cell size must be >= twice the largest radius plus the margin (checked); frames are

@@ -1,10 +1,10 @@
-"""MotionGraph: the runtime form of a snap-together motion graph (paper 000, Figure 1).
+"""MotionGraph: the runtime form of a snap-together motion graph (Sung, Kovar and Gleicher 2005, Figure 1).
 
 Nodes are hub poses shared by the end of every incoming clip and the start of every
 outgoing clip; edges are clips. All edge frames live in flat arrays (structure of arrays)
 indexed through ``edge_start``, so synthesis gathers frames of many edges in one numpy call.
 
-Per-edge tables the synthesis needs (issue 3, point 4) are precomputed:
+Per-edge tables the synthesis needs are precomputed:
 ``edge_duration`` (s), ``edge_disp`` (dx, dz, dheading: the planar rigid transform the edge
 applies, in its start frame), the per-frame root path (``frame_xz``, ``frame_heading``
 relative to the edge start), per-frame bounding cylinder (``frame_radius`` about the root's
@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, save_pack
+from ..assets import AssetError, load_pack, pack_fields, save_pack
 from .clip import Clip
 from .fk import end_site_positions, forward_kinematics
-from .skeleton import Skeleton
+from .skeleton import Skeleton, pop_skeleton_and_fps
 
 __all__ = ["MotionGraph", "PACK_KIND", "PACK_VERSION", "STATES", "edge_tables"]
 
@@ -173,19 +173,14 @@ class MotionGraph:
     @classmethod
     def load(cls, path) -> "MotionGraph":
         pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
-        try:
+        with pack_fields(path, "motion graph pack is inconsistent"):
             meta = dict(pk.meta)
-            sk = Skeleton.from_dict(meta.pop("skeleton"))
-            fps = float(meta.pop("fps"))
+            sk, fps = pop_skeleton_and_fps(meta)
             node_labels = meta.pop("node_labels")
             edge_labels = meta.pop("edge_labels")
             meta.pop("states", None)
             g = cls(skeleton=sk, fps=fps, node_labels=node_labels, edge_labels=edge_labels, meta=meta,
                     path=str(path), **{k: pk.arrays[k] for k in cls._ARRAYS})
-        except AssetError:
-            raise
-        except Exception as e:
-            raise AssetError(path, f"motion graph pack is inconsistent: {type(e).__name__}: {e}") from None
         g.validate(path)
         return g
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Skeleton", "SkeletonMismatchError", "KNOWN_FAMILIES"]
+__all__ = ["Skeleton", "SkeletonMismatchError", "KNOWN_FAMILIES", "pop_skeleton_and_fps"]
 
 
 class SkeletonMismatchError(ValueError):
@@ -122,39 +122,29 @@ class Skeleton:
                    tuple((int(j), tuple(o)) for j, o in d.get("end_sites", [])))
 
 
+def pop_skeleton_and_fps(meta: dict) -> tuple:
+    """(Skeleton, fps) taken out of a pack's ``meta`` (the ``skeleton`` and ``fps`` keys every
+    pack of posed motion carries)."""
+    return Skeleton.from_dict(meta.pop("skeleton")), float(meta.pop("fps"))
+
+
 def _register(name: str, names, parents):
     sk = Skeleton(tuple(names), np.array(parents), np.zeros((len(names), 3)))
     KNOWN_FAMILIES[sk.fingerprint] = name
 
 
-# Family A: CMU / cgspeed MotionBuilder-friendly, 31 joints.
-CMU_MB_NAMES = (
-    "Hips",
-    "LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
-    "RHipJoint", "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase",
-    "LowerBack", "Spine", "Spine1", "Neck", "Neck1", "Head",
-    "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb",
-    "RightShoulder", "RightArm", "RightForeArm", "RightHand", "RightFingerBase", "RightHandIndex1", "RThumb",
-)
-CMU_MB_PARENTS = (
-    -1,
-    0, 1, 2, 3, 4,
-    0, 6, 7, 8, 9,
-    0, 11, 12, 13, 14, 15,
-    13, 17, 18, 19, 20, 21, 20,
-    13, 24, 25, 26, 27, 28, 27,
-)
+# Family A: CMU / cgspeed MotionBuilder-friendly, 31 joints (legs, spine and head, arms).
+CMU_MB_NAMES = tuple("""Hips LHipJoint LeftUpLeg LeftLeg LeftFoot LeftToeBase RHipJoint RightUpLeg RightLeg RightFoot
+    RightToeBase LowerBack Spine Spine1 Neck Neck1 Head LeftShoulder LeftArm LeftForeArm LeftHand LeftFingerBase
+    LeftHandIndex1 LThumb RightShoulder RightArm RightForeArm RightHand RightFingerBase RightHandIndex1 RThumb""".split())
+CMU_MB_PARENTS = (-1, 0, 1, 2, 3, 4, 0, 6, 7, 8, 9, 0, 11, 12, 13, 14, 15,
+                  13, 17, 18, 19, 20, 21, 20, 13, 24, 25, 26, 27, 28, 27)
 _register("cmu-mb", CMU_MB_NAMES, CMU_MB_PARENTS)
 
-# Family B: cgspeed 3dsMax-friendly, 31 joints.
-CMU_MAX_NAMES = (
-    "Hips",
-    "LHipJoint", "LeftHip", "LeftKnee", "LeftAnkle", "LeftToe",
-    "RHipJoint", "RightHip", "RightKnee", "RightAnkle", "RightToe",
-    "lowerback", "Chest", "Chest2", "lowerneck", "Neck", "Head",
-    "LeftCollar", "LeftShoulder", "LeftElbow", "LeftWrist", "lhand", "LFingers", "LThumb",
-    "RightCollar", "RightShoulder", "RightElbow", "RightWrist", "rhand", "RFingers", "RThumb",
-)
+# Family B: cgspeed 3dsMax-friendly, 31 joints (the same tree as family A).
+CMU_MAX_NAMES = tuple("""Hips LHipJoint LeftHip LeftKnee LeftAnkle LeftToe RHipJoint RightHip RightKnee RightAnkle
+    RightToe lowerback Chest Chest2 lowerneck Neck Head LeftCollar LeftShoulder LeftElbow LeftWrist lhand LFingers
+    LThumb RightCollar RightShoulder RightElbow RightWrist rhand RFingers RThumb""".split())
 _register("cmu-3dsmax", CMU_MAX_NAMES, CMU_MB_PARENTS)
 
 # Family C: cgspeed DAZ-friendly, 43 joints.

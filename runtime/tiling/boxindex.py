@@ -114,7 +114,7 @@ class BoxIndex:
         self._live = np.zeros(64, bool)
         self.stats = {"coarse_rejects": 0, "queries": 0, "pairs": 0}
 
-    # -- helpers ---------------------------------------------------------------------------------
+    # -- internals ---------------------------------------------------------------------------------
     def _cells(self, xz):
         ij = np.floor((xz - self.origin) / self.cell).astype(np.int64)
         if self.nx:

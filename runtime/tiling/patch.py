@@ -49,7 +49,7 @@ import numpy as np
 from ..assets import AssetError, load_pack, pack_fields, save_pack
 from ..motion.fk import end_site_positions, forward_kinematics
 from ..motion.planar import rotate_xz, wrap_angle
-from ..motion.skeleton import Skeleton
+from ..motion.skeleton import Skeleton, pop_skeleton_and_fps
 
 __all__ = ["Fragment", "Constraint", "Port", "Patch", "PatchLibrary", "single_character_patches",
            "fragment_boxes", "PACK_KIND", "PACK_VERSION"]
@@ -261,10 +261,9 @@ class PatchLibrary:
         return len(self.pose_class_names)
 
     def index(self, name: str) -> int:
-        try:
-            return self._by_name[name]
-        except KeyError:
-            raise KeyError(f"patch library has no patch named {name!r}") from None
+        if name not in self._by_name:
+            raise KeyError(f"patch library has no patch named {name!r}")
+        return self._by_name[name]
 
     def with_label(self, label: str) -> list[int]:
         return [i for i, p in enumerate(self.patches) if label in p.labels]
@@ -347,8 +346,7 @@ class PatchLibrary:
         pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
         with pack_fields(path, "motion patch pack is missing a field"):
             meta = dict(pk.meta)
-            sk = Skeleton.from_dict(meta.pop("skeleton"))
-            fps = float(meta.pop("fps"))
+            sk, fps = pop_skeleton_and_fps(meta)
             P = int(meta.pop("num_patches"))
             names = meta.pop("patch_names")
             labels = meta.pop("patch_labels")

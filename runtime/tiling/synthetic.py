@@ -89,7 +89,7 @@ def _place(graph, edges, stand_idx, at_xz, at_heading):
 
 def meet_patch(graph, seed: int = 0, distance: float = 1.0, n_in: int = 1, n_idle: int = 1, name=None) -> Patch:
     rng = np.random.default_rng(seed)
-    frags, stand_frames = [], []
+    frags = []
     for side in (0, 1):
         e, s = _walker(graph, rng, n_in, n_idle, +1)
         at = np.array([0.0, -0.5 * distance if side == 0 else 0.5 * distance])

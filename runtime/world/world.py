@@ -80,6 +80,8 @@ class World:
         self.flock_host = FlockHost(self.rng)
         self.tiling = TilingHost()
         self.systems: list = [self.crowd, self.flock_host, self.tiling]
+        self.flocks: list = self.flock_host.systems      # the FlockSystems (one per DDG)
+        self.tilings: list = self.tiling.zones           # the TilingZones
         self.selected = None
         self._pose_batch = None          # render-side poses (joint_positions)
         self._pose_at = None
@@ -298,16 +300,6 @@ class World:
         return self.flock_host.positions()
 
     # -- flocks, tiling zones, scenarios ----------------------------------------------------------------------------
-    @property
-    def flocks(self) -> list:
-        """The :class:`~runtime.flock.FlockSystem`s (one per DDG)."""
-        return self.flock_host.systems
-
-    @property
-    def tilings(self) -> list:
-        """The :class:`~runtime.tiling.zone.TilingZone`s."""
-        return self.tiling.zones
-
     def add_flocks(self, ddg, positions, headings=None, regions=None, seed: int | None = None):
         """Start flocks walking ``ddg`` (a :class:`runtime.flock.DDG` or a pack path): their
         centroids at ``positions`` (k, 3), optionally each constrained to a region. All flocks

@@ -111,7 +111,7 @@ def fetch_scenario(seed: int = 0) -> dict:
     for i, c in enumerate(chars):
         c["name"] = f"c{i + 1:02d}"
     dur = max(t_last) + 10.0
-    return {"name": "fetch_boxes20", "description": "Experiment 5 (paper 000, Figure 9): 20 seated characters "
+    return {"name": "fetch_boxes20", "description": "Experiment 5 (Sung, Kovar and Gleicher 2005, Figure 9): 20 seated characters "
             "fetch boxes, put them down at designated spots and return to their seats", "world": "world.usda",
             "library": "default", "duration": float(math.ceil(dur)), "seed": seed,
             # way points to a seat pass 2 m in front of it, in the corridor's middle: a returner

@@ -43,7 +43,7 @@ def grid_scenario(cols: int, rows: int, spacing: float = 2.2, shift: float | Non
                       "start": {"position": position(start[c]), "heading": 90.0, "pose": "stand"},
                       "goal": [{"position": position(target[c])}]})
     n = cols * rows
-    return {"name": name or f"grid{n}", "description": f"Experiment 6 (paper 000, Figure 10): {cols} x {rows} "
+    return {"name": name or f"grid{n}", "description": f"Experiment 6 (Sung, Kovar and Gleicher 2005, Figure 10): {cols} x {rows} "
             f"grid, {spacing:g} m spacing, to the grid translated {shift:g} m along +X with perturbed targets",
             "library": "default", "duration": 60.0, "seed": seed,
             **({"synthesis": {"start_still": bool(start_still)}} if start_still is not None else {}),

@@ -54,7 +54,7 @@ def meet_scenario(groups=MEET_GROUPS, seed: int = 0, name: str | None = None) ->
                       "start": {"position": position(s), "heading": round(heading_deg(g[:2] - s), 3), "pose": "stand"},
                       "goal": [{"position": position(g[:2]), "heading": round(float(g[2]), 3), "pose": "stand",
                                 "time": [12.0, 12.5]}]})
-    return {"name": name or f"meet{n}", "description": f"Experiment 1 (paper 000, Figure 5): {n} characters "
+    return {"name": name or f"meet{n}", "description": f"Experiment 1 (Sung, Kovar and Gleicher 2005, Figure 5): {n} characters "
             "arrive simultaneously in pairs, triangles and a square, facing each other",
             "library": "default", "duration": 16.0, "seed": seed, "character": chars}
 

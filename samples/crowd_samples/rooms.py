@@ -93,7 +93,7 @@ def rooms_scenario(seed: int = 0, movers: bool = False) -> dict:
                       "goal": goals})
     chars.append({"name": "main", "start": {"position": [21.5, 6.5], "heading": -90.0, "pose": "stand"},
                   "goal": [{"box": "/World/Boxes/b01"}]})
-    return {"name": "rooms_box", "description": "Experiment 3 (paper 000, Figure 7): one character crosses "
+    return {"name": "rooms_box", "description": "Experiment 3 (Sung, Kovar and Gleicher 2005, Figure 7): one character crosses "
             "rooms full of obstacles and picks up a box",
             "world": "world.usda", "library": "default", "duration": 75.0, "seed": seed, "character": chars}
 

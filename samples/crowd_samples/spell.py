@@ -106,7 +106,7 @@ def spell_scenario(word: str = "SCA", n: int = 70, spacing: float = 1.6, seed: i
         chars.append({"name": f"c{k + 1:02d}",
                       "start": {"position": position(starts[i]), "heading": 0.0, "pose": "stand"},
                       "goal": [{"position": position(g), "heading": 0.0, "pose": "stand", "time": [t0, t0 + 1.0]}]})
-    return {"name": "spell70", "description": f"Experiment 2 (paper 000, Figure 6): {n} characters walk to "
+    return {"name": "spell70", "description": f"Experiment 2 (Sung, Kovar and Gleicher 2005, Figure 6): {n} characters walk to "
             f"points spelling {word}, front row first, and face the camera (+Z)",
             "library": "default", "duration": 20.0 + SPELL_STAGGER, "seed": seed, "character": chars}
 

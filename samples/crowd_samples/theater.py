@@ -74,7 +74,7 @@ def theater_scenario(seed: int = 0) -> dict:
             chars.append({"name": f"c{n:02d}",
                           "start": {"position": position(p), "heading": 180.0, "pose": "stand"},
                           "goal": [{"seat": f"/World/Seats/r{b + 1}_s{j + 1}", "time": [t, t + THEATER_GAP]}]})
-    return {"name": "theater40", "description": "Experiment 4 (paper 000, Figure 8): 40 characters walk from "
+    return {"name": "theater40", "description": "Experiment 4 (Sung, Kovar and Gleicher 2005, Figure 8): 40 characters walk from "
             "a lobby to theater seats", "world": "world.usda", "library": "default",
             "duration": 18.0 + THEATER_GAP * 20 + 4.0,
             "seed": seed, "character": chars}

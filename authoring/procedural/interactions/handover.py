@@ -136,7 +136,7 @@ def scene_relay(skel, rng, fps) -> Scene:
     D = float(rng.uniform(0.8, 0.9))
     A, B, f0 = meet(skel, rng, fps, D, carry_a=True)
     C = Performer("C", (0, 0, 0))
-    pa, pb = np.array(A.state[:2]), np.array(B.state[:2])
+    pb = np.array(B.state[:2])
     ev1, prop1 = _hand_over(skel, rng, A, B, fps, f0, (0, 1))
     # B turns by +-90 deg (towards C's side)
     sgn = float(rng.choice([-1.0, 1.0]))

@@ -1,4 +1,4 @@
-"""Compiled splice-cost kernel for the randomized search (paper 000, section 3.3, Eq. 1-2).
+"""Compiled splice-cost kernel for the randomized search (Sung, Kovar and Gleicher 2005, section 3.3, Eq. 1-2).
 
 :meth:`runtime.crowd.synthesis.SegmentPlanner.pair_costs` costs every pair (prefix i of M_f,
 suffix j of M_b) of n_m perturbed motion pairs per iteration. In numpy that is about forty
@@ -221,7 +221,7 @@ if AVAILABLE:
 
 
 def lookahead_errors(cfg, disp_out, comb, dur_out, dur2, tp, final, final_heading, face_w, face_off, approach, a1):
-    """One step of the greedy seed planner's two-edge lookahead (paper 000, section 3.2),
+    """One step of the greedy seed planner's two-edge lookahead (Sung, Kovar and Gleicher 2005, section 3.2),
     compiled: for each out-edge, the error to the target after it or after the best
     continuation (whichever is lower), the seconds that takes, where it ends, and the error
     now. Returns (e (d1,), span (d1,), end_xz (d1, 2), ends (d1, 3), cur) -- the numpy path of

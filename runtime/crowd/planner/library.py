@@ -46,7 +46,7 @@ class MotionLibrary:
         self.samp_frame = np.concatenate(idx)
         self.samp_edge = np.repeat(np.arange(E), np.diff(self.samp_ptr))
         self.samp_off = self.samp_frame - g.edge_start[self.samp_edge]
-        # alternatives: parallel edges weighted by 1 / distance (paper 000, section 3.3)
+        # alternatives: parallel edges weighted by 1 / distance (Sung, Kovar and Gleicher 2005, section 3.3)
         a1, a2 = self.params.alpha
         aptr, aidx, acum = [0], [], []
         for e in range(E):

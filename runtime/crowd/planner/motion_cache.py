@@ -1,6 +1,6 @@
 """Reuse of searched motions between characters with the same task.
 
-A segment's search (paper 000, section 3.3) depends on where the character starts only through
+A segment's search (Sung, Kovar and Gleicher 2005, section 3.3) depends on where the character starts only through
 the obstacles and the characters around it: its motion, relative to its start configuration,
 is a function of the start node, the goal relative to the start (position and heading in the
 start's frame), the goal's pose nodes and its time window relative to the start. Crowds are
