@@ -18,8 +18,8 @@ from runtime.motion import Clip, Skeleton, SkeletonMismatchError
 from runtime.motion.graph import MotionGraph
 
 from .distance import DEFAULT_JOINT_WEIGHTS, frame_features
-from .hubs import find_candidates, pick_hubs
-from .labels import NODE_LABEL, STATES, TRANSITIONS, state_classes, state_of_label
+from .hubs import find_candidates, pick_hubs, still_loops
+from .labels import NODE_LABEL, STATES, TRANSITIONS, pose_classes, state_classes, state_of_label
 from .snap import cut_edges, snap_take
 
 __all__ = ["SourceClip", "GraphBuildParams", "build_graph", "prune", "BUILDER_VERSION"]
@@ -50,6 +50,10 @@ class GraphBuildParams:
     max_hubs: int = 40
     snap_window: int = 8             # frames over which the snap displacement fades
     min_degree: int = 2              # in/out degree within the state subgraph after pruning
+    match_pose_kind: bool = False    # frames match only frames of the same node label (stand /
+                                     # walk): for labels derived from real capture, see labels.pose_classes
+    still_eps: tuple | None = None   # (m/s, deg/s): make idle self-loops that drift within this
+                                     # in runs of "idle" frames (hubs.still_loops); None: off
     joint_weights: dict = field(default_factory=lambda: dict(DEFAULT_JOINT_WEIGHTS))
 
 
@@ -85,7 +89,8 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     S = len(STATES)
     is_state = cls < S
     threshold = (params.threshold_cm / 100.0) ** 2
-    cand = find_candidates(feats, threshold, cls, compatible, row_ok=feats.valid & is_state,
+    match_cls, match_ok = pose_classes(labels, cls, compatible) if params.match_pose_kind else (cls, compatible)
+    cand = find_candidates(feats, threshold, match_cls, match_ok, row_ok=feats.valid & is_state,
                            col_ok=feats.valid, band=params.min_edge_frames, progress=progress)
     hubs = pick_hubs(feats, cand, params.min_edge_frames, params.min_occurrences, params.max_hubs,
                      hub_ok=feats.valid & is_state)
@@ -93,6 +98,14 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         raise ValueError("no hub poses found: the takes share no pose below the threshold "
                          f"({params.threshold_cm} cm); raise --threshold or add data")
     log(f"  {len(hubs)} hub poses from {len(cand.cols)} transition candidates")
+    if params.still_eps is not None:
+        root = np.concatenate([np.column_stack([t.clip.root_xz, t.clip.root_heading]) for t in takes])
+        idle = np.array([lab == "idle" for lab in labels]) & feats.valid
+        runs = [(a, b) for a, b in _runs(idle) if feats.take[a] == feats.take[b - 1]]
+        stand = np.array([NODE_LABEL.get(labels[h.frame]) == "stand" for h in hubs])
+        n_loops = still_loops(feats, hubs, runs, root, threshold, params.min_edge_frames, params.fps,
+                              params.still_eps, stand)
+        log(f"  {n_loops} idle loop(s) standing still")
 
     # -- snap and cut ------------------------------------------------------------------------
     offsets = np.concatenate([[0], np.cumsum([t.clip.num_frames for t in takes])])
@@ -104,11 +117,13 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     occ_frame = np.concatenate([h.occurrences for h in hubs])
     occ_hub = np.concatenate([np.full(len(h.occurrences), k) for k, h in enumerate(hubs)])
     edges = []   # (src, dst, take, start, end, clip)
+    spans = {}   # take -> [first, last] hub occurrence (frames outside them are on no edge)
     for ti, t in enumerate(takes):
         m = take_of[occ_frame] == ti
         if m.sum() < 2:
             continue
         local = occ_frame[m] - offsets[ti]
+        spans[t.name] = [int(local.min()), int(local.max())]
         hk = occ_hub[m]
         snapped = snap_take(t.clip, local, hub_rot[hk], hub_height[hk], params.snap_window)
         for a, b, s, e, c in cut_edges(snapped, local, hk):
@@ -158,7 +173,14 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
               "hub_frames": [{"take": takes[take_of[h.frame]].name, "frame": int(h.frame - offsets[take_of[h.frame]]),
                               "occurrences": int(len(h.occurrences))} for h in np.array(hubs, dtype=object)[nodes_kept]],
               "params": {k: v for k, v in params.__dict__.items() if k != "joint_weights"},
-              "candidates": int(len(cand.cols)), "pairs_evaluated": int(cand.pairs_evaluated)})
+              "candidates": int(len(cand.cols)), "pairs_evaluated": int(cand.pairs_evaluated),
+              "occurrence_span": spans})
+
+
+def _runs(mask: np.ndarray):
+    m = np.concatenate([[0], mask.astype(np.int8), [0]])
+    d = np.diff(m)
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
 def _scc_largest(n, src, dst, mask_nodes, mask_edges):

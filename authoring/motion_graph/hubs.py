@@ -18,7 +18,7 @@ import numpy as np
 
 from .distance import FrameFeatures, distance_rows
 
-__all__ = ["Candidates", "find_candidates", "pick_hubs", "Hub"]
+__all__ = ["Candidates", "find_candidates", "pick_hubs", "Hub", "still_loops"]
 
 
 @dataclass
@@ -122,3 +122,54 @@ def pick_hubs(f: FrameFeatures, cand: Candidates, min_gap: int, min_occurrences:
             same = f.take[lo:hi] == f.take[o]
             avail[lo:hi][same] = False
     return hubs
+
+
+def still_loops(f: FrameFeatures, hubs: list[Hub], still_runs, root: np.ndarray, threshold: float,
+                min_gap: int, fps: float, eps: tuple, stand_hub: np.ndarray) -> int:
+    """Idle self-loops that stand still: in every run of standing frames (``still_runs``:
+    global [start, end) frame ranges, one take each), the two frames ``min_gap`` or more apart
+    that both match a standing hub (``stand_hub`` per hub) within ``threshold`` and between
+    which the root drifts least -- if that drift is within ``eps`` (m/s, deg/s) -- become the
+    hub's occurrences there, replacing any occurrence between or near them. The edge cut
+    between them is then an idle clip a character can repeat to wait on the spot
+    (``runtime.crowd.idle``). ``root`` (N, 3): per frame x, z, heading (rad) in its take's
+    frame. Edits ``hubs`` in place; returns the number of loops made."""
+    made = 0
+    cand_hubs = [k for k, h in enumerate(hubs) if stand_hub[k]]
+    if not cand_hubs:
+        return 0
+    hub_frames = np.array([hubs[k].frame for k in cand_hubs])
+    for a, b in still_runs:
+        idx = np.arange(a, b)
+        idx = idx[f.valid[idx]]
+        if len(idx) < 2 or idx[-1] - idx[0] < min_gap:
+            continue
+        D = distance_rows(f, hub_frames, idx, with_angle=False)[0]          # (H, n)
+        i, j = np.triu_indices(len(idx), 1)
+        keep = idx[j] - idx[i] >= min_gap
+        i, j = i[keep], j[keep]
+        dt = (idx[j] - idx[i]) / fps
+        dp = np.hypot(*(root[idx[j], :2] - root[idx[i], :2]).T) / dt
+        dh = np.degrees(np.abs(root[idx[j], 2] - root[idx[i], 2])) / dt
+        rate = np.maximum(dp / eps[0], dh / eps[1])
+        best = None
+        for r, k in enumerate(cand_hubs):
+            ok = (D[r, i] < threshold) & (D[r, j] < threshold)
+            if ok.any():
+                m = int(np.argmin(np.where(ok, rate, np.inf)))
+                if best is None or rate[m] < best[0]:
+                    best = (float(rate[m]), k, int(idx[i[m]]), int(idx[j[m]]), float(D[r, i[m]]), float(D[r, j[m]]))
+        if best is None or best[0] > 1.0:
+            continue
+        _, k, fi, fj, di, dj = best
+        take = f.take[fi]
+        for h in hubs:                       # nothing between the two frames, nor too close to them
+            near = (f.take[h.occurrences] == take) & (h.occurrences > fi - min_gap) & (h.occurrences < fj + min_gap)
+            h.occurrences, h.distances = h.occurrences[~near], h.distances[~near]
+        h = hubs[k]
+        occ = np.concatenate([h.occurrences, [fi, fj]])
+        dist = np.concatenate([h.distances, [di, dj]])
+        order = np.argsort(occ, kind="stable")
+        h.occurrences, h.distances = occ[order], dist[order]
+        made += 1
+    return made

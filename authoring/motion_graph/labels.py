@@ -64,3 +64,14 @@ def state_of_label(label: str) -> str | None:
     if label in TRANSITIONS:
         return None
     return LABEL_STATE.get(label, "walking")
+
+
+def pose_classes(labels: list[str], cls: np.ndarray, compatible: np.ndarray):
+    """State classes (:func:`state_classes`) split further by node label, so that frames
+    match only frames of the same pose kind ("stand" with "stand", "walk" with "walk"): a
+    hub is then a standing or a walking pose, never both, and the data's own stops and
+    starts are the only ways between them. Returns (classes (N,), compatible (C', C') bool)."""
+    kinds = sorted({NODE_LABEL.get(lab, lab) for lab in labels})
+    kind = np.array([kinds.index(NODE_LABEL.get(lab, lab)) for lab in labels], dtype=np.int64)
+    K = len(kinds)
+    return cls * K + kind, np.kron(compatible, np.eye(K, dtype=bool))

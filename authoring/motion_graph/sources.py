@@ -2,22 +2,52 @@
 
 A take directory holds ``*.bvh`` files with ``<stem>.labels.json`` sidecars
 (``{"fps": .., "frames": .., "segments": [[start, end_exclusive, label], ...]}``, frames at
-the BVH's own rate). A BVH file gets its labels from ``--labels`` (a sidecar path or a
-single label for every frame), else from a sidecar beside it, else ``"walk"``.
+the BVH's own rate). A BVH file gets its labels from ``labels`` (a sidecar path, or a single
+label for every frame), else from a sidecar beside it, else they are derived from the motion
+(:mod:`.derive`; ``labels="derive"`` asks for that even beside a sidecar). Derived labels
+also say which frames are not flat-ground walking: the file is cut into the runs of usable
+frames, one take each, named ``<stem>[a:b]`` (frames ``a`` to ``b`` exclusive at the graph
+rate). ``mirror=True`` adds every take mirrored left to right (``<name> mirrored``): a left
+turn becomes a right turn. :func:`load_sources` also returns, per file, what it gave and
+which takes came from it, for the build report (:mod:`.report`).
 """
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from runtime.motion import SkeletonMismatchError
+from runtime.motion import SkeletonMismatchError, ops
 
 from ..bvh import read_bvh
 from .build import SourceClip
+from .derive import DeriveParams, derive_labels, usable_runs
 
-__all__ = ["load_takes", "read_labels", "LabelError"]
+__all__ = ["load_takes", "load_sources", "read_labels", "LabelError", "SourceFile", "DERIVE"]
+
+DERIVE = "derive"     # the ``labels`` value that derives labels from the motion
+
+
+@dataclass
+class SourceFile:
+    """One input file: its frames at the graph rate, their labels, and the takes cut from it
+    (take name -> first frame in the file, mirrored copies included)."""
+    path: str
+    fps: float
+    labels: list[str]
+    derived: bool
+    takes: dict = field(default_factory=dict)
+    mirrored: set = field(default_factory=set)
+
+    @property
+    def frames(self) -> int:
+        return len(self.labels)
+
+    @property
+    def seconds(self) -> float:
+        return max(0, self.frames - 1) / self.fps
 
 
 class LabelError(ValueError):
@@ -54,24 +84,46 @@ def _resample_labels(labels: list[str], src_fps: float, n_out: int, dst_fps: flo
     return [labels[i] for i in idx]
 
 
-def _take_from_bvh(path: Path, fps: float, scale, labels_arg, sidecar: Path | None) -> SourceClip:
-    m = read_bvh(path, scale=scale, fps=fps)
+def _file_takes(m, path: Path, fps: float, labels_arg, sidecar: Path | None, derive: DeriveParams | None):
+    """(takes, SourceFile) of one BVH file read into ``m``."""
     n = m.clip.num_frames
     offset = 1 if m.dropped_first_frame else 0
-    if labels_arg is not None and Path(labels_arg).suffix == ".json":
+    src = None
+    if labels_arg is not None and labels_arg != DERIVE and Path(labels_arg).suffix == ".json":
         src = read_labels(labels_arg, m.source_frames)
-    elif labels_arg is not None:
+    elif labels_arg is not None and labels_arg != DERIVE:
         src = [str(labels_arg)] * m.source_frames
-    elif sidecar is not None and sidecar.exists():
+    elif labels_arg is None and sidecar is not None and sidecar.exists():
         src = read_labels(sidecar, m.source_frames)
-    else:
-        src = ["walk"] * m.source_frames
-    return SourceClip(path.stem, m.clip, _resample_labels(src, m.source_fps, n, fps, offset), str(path))
+    if src is not None:
+        labs = _resample_labels(src, m.source_fps, n, fps, offset)
+        info = SourceFile(str(path), fps, labs, derived=False, takes={path.stem: 0})
+        return [SourceClip(path.stem, m.clip, labs, str(path))], info
+    try:
+        labs = derive_labels(m.clip, derive)
+    except ValueError as e:
+        raise LabelError(f"{path}: cannot derive labels from the motion ({e}); give --labels") from None
+    info = SourceFile(str(path), fps, labs, derived=True)
+    takes = []
+    for a, b in usable_runs(labs):
+        if b - a < 2:
+            continue
+        name = f"{path.stem}[{a}:{b}]"
+        info.takes[name] = a
+        takes.append(SourceClip(name, ops.cut(m.clip, a, b), labs[a:b], str(path)))
+    return takes, info
 
 
-def load_takes(inputs, fps: float = 30.0, scale=None, labels=None, progress=None) -> list[SourceClip]:
-    """Takes from directories and BVH files, all resampled to ``fps``. Raises
-    SkeletonMismatchError naming both files when families differ."""
+def load_takes(inputs, fps: float = 30.0, scale=None, labels=None, progress=None, mirror: bool = False,
+               derive: DeriveParams | None = None) -> list[SourceClip]:
+    """Takes from directories and BVH files, all resampled to ``fps`` (see the module
+    docstring). Raises SkeletonMismatchError naming both files when families differ."""
+    return load_sources(inputs, fps, scale, labels, progress, mirror, derive)[0]
+
+
+def load_sources(inputs, fps: float = 30.0, scale=None, labels=None, progress=None, mirror: bool = False,
+                 derive: DeriveParams | None = None) -> tuple[list[SourceClip], list[SourceFile]]:
+    """(takes, files): :func:`load_takes` and, per input file, a :class:`SourceFile`."""
     files: list[Path] = []
     for inp in inputs:
         p = Path(inp)
@@ -84,14 +136,25 @@ def load_takes(inputs, fps: float = 30.0, scale=None, labels=None, progress=None
             files.append(p)
         else:
             raise FileNotFoundError(f"{p}: no such file or directory")
-    takes = []
+    takes, infos = [], []
+    first = None
     for f in files:
-        t = _take_from_bvh(f, fps, scale, labels, f.with_suffix(".labels.json"))
-        if takes and not t.clip.skeleton.same_family(takes[0].clip.skeleton):
+        m = read_bvh(f, scale=scale, fps=fps)
+        if first is None:
+            first = (f, m.clip.skeleton)
+        elif not m.clip.skeleton.same_family(first[1]):
             raise SkeletonMismatchError(
-                f"skeleton family mismatch: {f} has family {t.clip.skeleton.family!r} but "
-                f"{takes[0].path} has {takes[0].clip.skeleton.family!r}; retarget before mixing")
-        takes.append(t)
+                f"skeleton family mismatch: {f} has family {m.clip.skeleton.family!r} but "
+                f"{first[0]} has {first[1].family!r}; retarget before mixing")
+        ts, info = _file_takes(m, f, fps, labels, f.with_suffix(".labels.json"), derive)
+        takes.extend(ts)
+        if mirror:
+            for t in ts:
+                name = f"{t.name} mirrored"
+                info.takes[name] = info.takes[t.name]
+                info.mirrored.add(name)
+                takes.append(SourceClip(name, ops.mirror(t.clip), list(t.labels), t.path))
+        infos.append(info)
         if progress:
             progress(1)
-    return takes
+    return takes, infos
