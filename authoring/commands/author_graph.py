@@ -10,9 +10,15 @@ def configure(p):
     p.add_argument("inputs", nargs="+", help="take directories (procedural capture) and/or BVH files")
     p.add_argument("--out", required=True, help="output pack (.cwpack); a USD preview is written beside it")
     p.add_argument("--scale", type=float, default=None, help="metres per BVH unit (default: by skeleton family)")
-    p.add_argument("--labels", default=None, help="label sidecar JSON, or one label for all BVH frames (default: sidecars, else 'walk')")
+    p.add_argument("--labels", default=None,
+                   help="label sidecar JSON, one label for all BVH frames, or 'derive' (default: sidecars, "
+                        "else derived from the motion: stand, turn on the spot, walk; hops, backward or "
+                        "sideways travel and uneven ground left out)")
+    p.add_argument("--mirror", action="store_true",
+                   help="add every take mirrored left to right (a left turn becomes a right turn)")
     p.add_argument("--fps", type=float, default=30.0, help="graph frame rate (default 30)")
-    p.add_argument("--threshold", type=float, default=None, help="hub match threshold, RMS cm (default 6)")
+    p.add_argument("--threshold", type=float, default=None,
+                   help="hub match threshold, RMS cm (default 6; 14 for capture with derived labels)")
     p.add_argument("--no-usd", action="store_true", help="skip the USD preview")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -22,27 +28,22 @@ def run(args) -> int:
 
     from authoring.bvh import BVHError
     from authoring.commands import CLIError
-    from authoring.motion_graph.build import GraphBuildParams, build_graph
-    from authoring.motion_graph.sources import LabelError, load_takes
+    from authoring.motion_graph.library import build_library
+    from authoring.motion_graph.sources import LabelError
     from runtime.motion import SkeletonMismatchError
 
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
     try:
-        with tqdm(desc="reading takes", unit="file", disable=quiet) as bar:
-            takes = load_takes(args.inputs, fps=args.fps, scale=args.scale, labels=args.labels, progress=bar.update)
-    except (FileNotFoundError, BVHError, LabelError, SkeletonMismatchError) as e:
+        with tqdm(desc="reading takes", unit="file", disable=quiet) as rbar, \
+                tqdm(desc="frame distances", unit="frame", disable=quiet) as bar:
+            g, report = build_library(args.inputs, mirror=args.mirror, labels=args.labels,
+                                      threshold_cm=args.threshold, fps=args.fps, scale=args.scale,
+                                      log=print, progress=bar.update, read_progress=rbar.update)
+    except (FileNotFoundError, BVHError, LabelError, SkeletonMismatchError, ValueError) as e:
         raise CLIError(str(e)) from None
-    frames = sum(t.clip.num_frames for t in takes)
-    print(f"{len(takes)} takes, {frames} frames ({frames / args.fps:.1f} s) at {args.fps:g} fps")
-    params = GraphBuildParams(fps=args.fps)
-    if args.threshold is not None:
-        params.threshold_cm = args.threshold
-    try:
-        with tqdm(total=frames, desc="frame distances", unit="frame", disable=quiet) as bar:
-            g = build_graph(takes, params, progress=bar.update, log=print)
-    except (ValueError, SkeletonMismatchError) as e:
-        raise CLIError(str(e)) from None
+    for line in report:
+        print(line)
     out = Path(args.out)
     g.save(out)
     s = g.summary()

@@ -15,7 +15,11 @@ def _pack_summary(path: Path) -> dict:
     from runtime.motion.graph import PACK_KIND, MotionGraph
     pk = load_pack(path)
     if pk.kind == PACK_KIND:
-        return {"kind": pk.kind, "version": pk.version, **MotionGraph.load(path).summary()}
+        g = MotionGraph.load(path)
+        out = {"kind": pk.kind, "version": pk.version, **g.summary()}
+        if "build_report" in g.meta:
+            out["build_report"] = g.meta["build_report"]
+        return out
     out = {"kind": pk.kind, "version": pk.version,
            "arrays": {k: list(v.shape) for k, v in pk.arrays.items()}}
     for k, v in pk.meta.items():
@@ -80,5 +84,11 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(d, indent=2, default=str))
     else:
+        report = d.pop("build_report", None)
         _print(d)
+        if report is not None:
+            from authoring.motion_graph.report import format_report
+            print("build report:")
+            for line in format_report(report["sources"], report["capabilities"]):
+                print("  " + line)
     return 0

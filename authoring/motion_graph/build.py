@@ -97,7 +97,9 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     if not hubs:
         raise ValueError("no hub poses found: the takes share no pose below the threshold "
                          f"({params.threshold_cm} cm); raise --threshold or add data")
-    log(f"  {len(hubs)} hub poses from {len(cand.cols)} transition candidates")
+    occ_d = np.sqrt(np.concatenate([h.distances for h in hubs])) * 100.0
+    log(f"  {len(hubs)} hub poses from {len(cand.cols)} transition candidates "
+        f"(occurrences within {occ_d.max():.1f} cm of their hub, median {np.median(occ_d):.1f} cm)")
     if params.still_eps is not None:
         root = np.concatenate([np.column_stack([t.clip.root_xz, t.clip.root_heading]) for t in takes])
         idle = np.array([lab == "idle" for lab in labels]) & feats.valid

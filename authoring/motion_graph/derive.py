@@ -14,8 +14,9 @@ Labels kept for the graph: ``idle`` (root slower than ``stand_speed``, turning s
 ``turn_rate``), ``turn`` (turning on the spot), ``walk`` and ``run`` (faster than
 ``run_speed`` with a flight phase). Labels left out, each with the reason the build report
 gives (:data:`DROPPED`): ``jump`` (hops: both feet off the ground without running),
-``backward`` and ``sideways`` (travel more than ``backward_angle`` / ``sideways_angle``
-away from the facing), ``uneven`` (consecutive foot contacts more than ``level_step`` apart
+``low`` (the root less than ``low_ratio`` rest-pose leg lengths above the feet: crouching,
+sitting), ``backward`` and ``sideways`` (stepping with the root travelling more than
+``backward_angle`` / ``sideways_angle`` away from the facing), ``uneven`` (consecutive foot contacts more than ``level_step`` apart
 in height: stepping up or down).
 """
 from __future__ import annotations
@@ -24,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runtime.motion import Clip
+from runtime.motion import Clip, quat
+from runtime.motion.fk import forward_kinematics
 
 __all__ = ["DeriveParams", "derive_labels", "motion_features", "usable_runs", "DROPPED", "KEPT"]
 
@@ -36,6 +38,7 @@ DROPPED = {
     "backward": "not walking-like: walks backward",
     "sideways": "not walking-like: steps sideways",
     "uneven": "uneven ground: steps up or down",
+    "low": "not walking-like: crouching or sitting (root low over the feet)",
 }
 
 
@@ -50,7 +53,7 @@ class DeriveParams:
     min_contact: float = 0.1          # s: shorter contacts do not give a ground height
     stand_speed: float = 0.25         # m/s: slower root is standing ...
     turn_rate: float = 25.0           # deg/s: ... unless it turns faster: a turn on the spot ...
-    turn_speed: float = 0.5           # m/s: ... while the root moves slower than this (it sways)
+    turn_speed: float = 0.6           # m/s: ... while the root moves slower than this (it sways)
     run_speed: float = 2.2            # m/s: faster with flight phases is running
     min_flight: float = 0.07          # s: shorter flights are contact noise
     jump_margin: float = 0.3          # s around a hop (crouch, landing) left out with it
@@ -60,6 +63,8 @@ class DeriveParams:
     backward_angle: float = 115.0     # ... and backward beyond this
     direction_margin: float = 0.2     # s around backward / sideways travel left out with it
     level_step: float = 0.05          # m: consecutive contacts further apart in height are a step up/down
+    low_ratio: float = 0.8            # root closer to the feet than this x the rest-pose leg is
+    #                                   crouching or sitting
 
 
 def _box(x: np.ndarray, half: int) -> np.ndarray:
@@ -112,7 +117,8 @@ def motion_features(clip: Clip, p: DeriveParams) -> dict:
     """Per frame: ``speed`` (m/s) and ``turn`` (deg/s) of the root, averaged; ``travel``
     (deg, direction of travel minus facing); ``contact`` (F, 2) per foot (slow, or low and
     not swinging); ``stance`` (F, 2) per foot (slow) and ``level`` (F, 2) the ground height
-    under it (NaN off the ground)."""
+    under it (NaN off the ground); ``above_feet`` the root's height over the lowest foot
+    joint in rest-pose leg lengths."""
     fps = clip.fps
     F = clip.num_frames
     pos, _ = clip.world_root()
@@ -140,7 +146,12 @@ def motion_features(clip: Clip, p: DeriveParams) -> dict:
         contact[:, s] = (slow | low).any(axis=1)
         stance[:, s] = slow.any(axis=1)
         level[:, s] = np.where(stance[:, s], np.where(slow, y, np.inf).min(axis=1), np.nan)
-    return {"speed": speed, "turn": turn, "travel": travel, "contact": contact, "stance": stance, "level": level}
+    feet = [j for js in _foot_joints(list(clip.skeleton.names)) for j in js]
+    rest = forward_kinematics(clip.skeleton, np.zeros(3), np.tile(quat.identity(), (clip.skeleton.num_joints, 1)))[1]
+    leg = float(-rest[feet, 1].min())
+    above = pos[:, 1] - gp[:, feet, 1].min(axis=1)
+    return {"speed": speed, "turn": turn, "travel": travel, "contact": contact, "stance": stance, "level": level,
+            "above_feet": above / max(leg, 1e-6)}
 
 
 def _level_steps(stance: np.ndarray, level: np.ndarray, step: float, min_frames: int) -> np.ndarray:
@@ -180,13 +191,18 @@ def derive_labels(clip: Clip, params: DeriveParams | None = None) -> list[str]:
     running = fl & (speed >= p.run_speed)
     hop = fl & ~running
     lab[_dilate(running, int(round(0.5 * fps)))] = "run"
-    moving = (speed >= p.travel_speed) & ~on_spot
+    # travel counts only while stepping (a foot off the ground nearby): bending over or sitting
+    # down moves the root back with both feet planted
+    lifted = ~f["stance"].all(axis=1)
+    stepping = _dilate(lifted, int(round(p.direction_margin * fps)))
+    moving = (speed >= p.travel_speed) & ~on_spot & stepping
     side = moving & (np.abs(travel) > p.sideways_angle)
     back = moving & (np.abs(travel) > p.backward_angle)
     r = int(round(p.direction_margin * fps))
     lab[_dilate(side, r)] = "sideways"
     lab[_dilate(back, r)] = "backward"
     lab[_dilate(hop, int(round(p.jump_margin * fps)))] = "jump"
+    lab[f["above_feet"] < p.low_ratio] = "low"
     lab[_level_steps(f["stance"], f["level"], p.level_step, max(1, int(round(p.min_contact * fps))))] = "uneven"
     return lab.tolist()
 

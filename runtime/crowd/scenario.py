@@ -390,7 +390,7 @@ def validate(sc: Scenario, env=None, node_labels=None) -> None:
     for c in sc.characters:
         if node_labels is not None and c.pose not in node_labels:
             raise ScenarioError(f"{sc.path}: character {c.name!r} start: pose {c.pose!r} is not in the library "
-                                f"(it has {sorted(node_labels)})")
+                                f"{sc.library!r} (it has {sorted(node_labels)})")
         if env is not None and c.start_marker is None:
             d0 = float(env.distance(c.position[None])[0])
             if d0 < 0:
@@ -403,7 +403,8 @@ def validate(sc: Scenario, env=None, node_labels=None) -> None:
         for gi, g in enumerate(c.goals):
             gw = f"{sc.path}: character {c.name!r} goal {gi}"
             if node_labels is not None and g.pose is not None and g.pose not in node_labels:
-                raise ScenarioError(f"{gw}: pose {g.pose!r} is not in the library (it has {sorted(node_labels)})")
+                raise ScenarioError(f"{gw}: pose {g.pose!r} is not in the library {sc.library!r} "
+                                    f"(it has {sorted(node_labels)})")
             if env is not None and g.kind == "position" and env.distance(g.position[None])[0] < 0:
                 raise ScenarioError(f"{gw}: position {g.position.tolist()} is inside an obstacle")
             if g.time is not None:
