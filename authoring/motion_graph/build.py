@@ -17,6 +17,7 @@ from scipy.sparse.csgraph import connected_components
 from runtime.motion import Clip, Skeleton, SkeletonMismatchError
 from runtime.motion.graph import MotionGraph
 
+from .derive import runs
 from .distance import DEFAULT_JOINT_WEIGHTS, frame_features
 from .hubs import find_candidates, pick_hubs, still_loops
 from .labels import NODE_LABEL, STATES, TRANSITIONS, pose_classes, state_classes, state_of_label
@@ -103,9 +104,9 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     if params.still_eps is not None:
         root = np.concatenate([np.column_stack([t.clip.root_xz, t.clip.root_heading]) for t in takes])
         idle = np.array([lab == "idle" for lab in labels]) & feats.valid
-        runs = [(a, b) for a, b in _runs(idle) if feats.take[a] == feats.take[b - 1]]
+        standing = [(a, b) for a, b in runs(idle) if feats.take[a] == feats.take[b - 1]]
         stand = np.array([NODE_LABEL.get(labels[h.frame]) == "stand" for h in hubs])
-        n_loops = still_loops(feats, hubs, runs, root, threshold, params.min_edge_frames, params.fps,
+        n_loops = still_loops(feats, hubs, standing, root, threshold, params.min_edge_frames, params.fps,
                               params.still_eps, stand)
         log(f"  {n_loops} idle loop(s) standing still")
 
@@ -177,12 +178,6 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
               "params": {k: v for k, v in params.__dict__.items() if k != "joint_weights"},
               "candidates": int(len(cand.cols)), "pairs_evaluated": int(cand.pairs_evaluated),
               "occurrence_span": spans})
-
-
-def _runs(mask: np.ndarray):
-    m = np.concatenate([[0], mask.astype(np.int8), [0]])
-    d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
 def _scc_largest(n, src, dst, mask_nodes, mask_edges):

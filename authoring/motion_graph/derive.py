@@ -7,17 +7,18 @@ is measured from forward-kinematics joint positions at the graph's frame rate:
 
 * **Root motion.** Planar root speed and heading rate, averaged over ``smooth`` seconds
   (a gait cycle's sway averages out); the direction of travel relative to the facing.
-* **Foot contacts.** A foot is in contact while its ankle or ball moves slower than
-  ``contact_speed``; the ground level under a contact is the height of its lower joint.
+* **Foot contacts.** A foot is on the ground while its ankle or ball moves slower than
+  ``contact_speed``, or stays within ``contact_height`` of its lowest height nearby without
+  swinging; the ground level under a slow foot is the height of its lower joint.
 
 Labels kept for the graph: ``idle`` (root slower than ``stand_speed``, turning slower than
-``turn_rate``), ``turn`` (turning on the spot), ``walk`` and ``run`` (faster than
+``turn_rate``), ``turn`` (turning on the spot), ``walk``, and ``run`` (faster than
 ``run_speed`` with a flight phase). Labels left out, each with the reason the build report
-gives (:data:`DROPPED`): ``jump`` (hops: both feet off the ground without running),
-``low`` (the root less than ``low_ratio`` rest-pose leg lengths above the feet: crouching,
-sitting), ``backward`` and ``sideways`` (stepping with the root travelling more than
-``backward_angle`` / ``sideways_angle`` away from the facing), ``uneven`` (consecutive foot contacts more than ``level_step`` apart
-in height: stepping up or down).
+gives (:data:`DROPPED`): ``jump`` (hops: both feet off the ground without running), ``low``
+(the root less than ``low_ratio`` rest-pose leg lengths above the feet: crouching, sitting),
+``backward`` and ``sideways`` (stepping with the root travelling more than ``backward_angle``
+/ ``sideways_angle`` away from the facing), ``uneven`` (consecutive foot contacts more than
+``level_step`` apart in height: stepping up or down).
 """
 from __future__ import annotations
 
@@ -28,10 +29,8 @@ import numpy as np
 from runtime.motion import Clip, quat
 from runtime.motion.fk import forward_kinematics
 
-__all__ = ["DeriveParams", "derive_labels", "motion_features", "usable_runs", "DROPPED", "KEPT"]
+__all__ = ["DeriveParams", "derive_labels", "motion_features", "usable_runs", "runs", "DROPPED"]
 
-# labels the graph is built from
-KEPT = ("idle", "turn", "walk", "run")
 # labels left out of the graph -> the reason the build report gives
 DROPPED = {
     "jump": "not walking-like: hops or jumps (both feet off the ground)",
@@ -84,7 +83,7 @@ def _dilate(mask: np.ndarray, r: int) -> np.ndarray:
     return _box(mask.astype(np.float64), r) > 0
 
 
-def _runs(mask: np.ndarray):
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """(start, end exclusive) of every run of True."""
     m = np.concatenate([[0], mask.astype(np.int8), [0]])
     d = np.diff(m)
@@ -114,7 +113,7 @@ def _foot_joints(names) -> list[list[int]]:
 
 
 def motion_features(clip: Clip, p: DeriveParams) -> dict:
-    """Per frame: ``speed`` (m/s) and ``turn`` (deg/s) of the root, averaged; ``travel``
+    """Per frame (at least two): ``speed`` (m/s) and ``turn`` (deg/s) of the root, averaged; ``travel``
     (deg, direction of travel minus facing); ``contact`` (F, 2) per foot (slow, or low and
     not swinging); ``stance`` (F, 2) per foot (slow) and ``level`` (F, 2) the ground height
     under it (NaN off the ground); ``above_feet`` the root's height over the lowest foot
@@ -123,21 +122,22 @@ def motion_features(clip: Clip, p: DeriveParams) -> dict:
     F = clip.num_frames
     pos, _ = clip.world_root()
     xz = pos[:, [0, 2]]
-    v = np.gradient(xz, axis=0) * fps if F > 1 else np.zeros((F, 2))
+    v = np.gradient(xz, axis=0) * fps
     half = int(round(0.5 * p.smooth * fps))
     vs = np.stack([_box(v[:, 0], half), _box(v[:, 1], half)], axis=1)
     speed = np.hypot(vs[:, 0], vs[:, 1])
     h = clip.world_heading()
-    turn = _box(np.degrees(np.gradient(h)) * fps, half) if F > 1 else np.zeros(F)
+    turn = _box(np.degrees(np.gradient(h)) * fps, half)
     travel = (np.degrees(np.arctan2(vs[:, 0], vs[:, 1]) - h) + 180.0) % 360.0 - 180.0
     gp = clip.positions()
     r = max(int(round(p.floor_window * fps)), 1)
     contact = np.zeros((F, 2), dtype=bool)
     stance = np.zeros((F, 2), dtype=bool)
     level = np.full((F, 2), np.nan)
-    for s, js in enumerate(_foot_joints(list(clip.skeleton.names))):
+    legs = _foot_joints(list(clip.skeleton.names))
+    for s, js in enumerate(legs):
         q = gp[:, js]                                            # (F, k, 3)
-        sp = np.linalg.norm(np.gradient(q, axis=0), axis=-1) * fps if F > 1 else np.zeros(q.shape[:2])
+        sp = np.linalg.norm(np.gradient(q, axis=0), axis=-1) * fps
         y = q[..., 1]
         pad = np.concatenate([np.repeat(y[:1], r, axis=0), y, np.repeat(y[-1:], r, axis=0)], axis=0)
         floor = np.lib.stride_tricks.sliding_window_view(pad, 2 * r + 1, axis=0).min(axis=-1)
@@ -146,7 +146,7 @@ def motion_features(clip: Clip, p: DeriveParams) -> dict:
         contact[:, s] = (slow | low).any(axis=1)
         stance[:, s] = slow.any(axis=1)
         level[:, s] = np.where(stance[:, s], np.where(slow, y, np.inf).min(axis=1), np.nan)
-    feet = [j for js in _foot_joints(list(clip.skeleton.names)) for j in js]
+    feet = [j for js in legs for j in js]
     rest = forward_kinematics(clip.skeleton, np.zeros(3), np.tile(quat.identity(), (clip.skeleton.num_joints, 1)))[1]
     leg = float(-rest[feet, 1].min())
     above = pos[:, 1] - gp[:, feet, 1].min(axis=1)
@@ -160,7 +160,7 @@ def _level_steps(stance: np.ndarray, level: np.ndarray, step: float, min_frames:
     F = len(stance)
     events = []                                                # (start, end, median level)
     for s in range(stance.shape[1]):
-        for a, b in _runs(stance[:, s]):
+        for a, b in runs(stance[:, s]):
             if b - a >= min_frames:
                 events.append((a, b, float(np.median(level[a:b, s]))))
     events.sort()
@@ -172,10 +172,13 @@ def _level_steps(stance: np.ndarray, level: np.ndarray, step: float, min_frames:
 
 
 def derive_labels(clip: Clip, params: DeriveParams | None = None) -> list[str]:
-    """One label per frame of ``clip`` (see the module docstring)."""
+    """One label per frame of ``clip`` (see the module docstring); a clip of fewer than two
+    frames does not move: ``idle``."""
     p = params or DeriveParams()
     fps = clip.fps
     F = clip.num_frames
+    if F < 2:
+        return ["idle"] * F
     f = motion_features(clip, p)
     speed, turn, travel = f["speed"], f["turn"], f["travel"]
     lab = np.full(F, "walk", dtype=object)
@@ -185,12 +188,12 @@ def derive_labels(clip: Clip, params: DeriveParams | None = None) -> list[str]:
     lab[on_spot] = "turn"
     flight = ~f["contact"].any(axis=1)
     fl = np.zeros(F, dtype=bool)
-    for a, b in _runs(flight):
+    for a, b in runs(flight):
         if (b - a) / fps >= p.min_flight:
             fl[a:b] = True
     running = fl & (speed >= p.run_speed)
     hop = fl & ~running
-    lab[_dilate(running, int(round(0.5 * fps)))] = "run"
+    lab[_dilate(running, int(round(0.5 * fps)))] = "run"       # the strides around the flights
     # travel counts only while stepping (a foot off the ground nearby): bending over or sitting
     # down moves the root back with both feet planted
     lifted = ~f["stance"].all(axis=1)
@@ -210,4 +213,4 @@ def derive_labels(clip: Clip, params: DeriveParams | None = None) -> list[str]:
 def usable_runs(labels) -> list[tuple[int, int]]:
     """(start, end exclusive) of the runs of frames whose labels are kept for the graph."""
     keep = np.array([lab not in DROPPED for lab in labels], dtype=bool)
-    return _runs(keep)
+    return runs(keep)

@@ -51,7 +51,8 @@ def build_library(inputs, mirror: bool = False, labels=None, threshold_cm: float
         raise ValueError("no usable frames in the inputs: " + "; ".join(
             f"{f.path}: nothing but {', '.join(sorted(set(f.labels)))}" for f in files))
     frames = sum(t.clip.num_frames for t in takes)
-    log(f"{len(takes)} takes from {len(files)} files, {frames} frames ({frames / fps:.1f} s) at {fps:g} fps")
+    log(f"{len(takes)} takes{' (mirrored copies included)' if mirror else ''} from {len(files)} files, "
+        f"{frames} frames ({frames / fps:.1f} s) at {fps:g} fps")
     if params is None:
         params = capture_params(None, any(f.derived for f in files), threshold_cm)
     elif threshold_cm is not None:

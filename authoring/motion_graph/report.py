@@ -13,6 +13,8 @@ stop from walking and start again, turn on the spot; and, plainly, what is missi
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from runtime.crowd.idle import still_nodes
@@ -50,7 +52,7 @@ def source_report(graph: MotionGraph, files) -> list[dict]:
     out = []
     for f in files:
         n = max(0, f.frames - 1)
-        base = _interval_reasons(f.labels)
+        base = _interval_reasons(f.labels) if f.derived else [None] * n
         tallies = []
         for mirrored in (False, True):
             cat = [r if r is not None else NO_TRANSITION for r in base]
@@ -71,7 +73,7 @@ def source_report(graph: MotionGraph, files) -> list[dict]:
         for c in own:
             if c != "kept":
                 dropped[c] = dropped.get(c, 0.0) + 1.0 / fps
-        out.append({"file": f.path.replace("\\", "/").rsplit("/", 1)[-1], "given_s": round(n / fps, 2),
+        out.append({"file": Path(f.path).name, "given_s": round(n / fps, 2),
                     "kept_s": round(sum(c == "kept" for c in own) / fps, 2),
                     "kept_mirrored_s": round(sum(c == "kept" for c in mir) / fps, 2) if f.mirrored else None,
                     "dropped": {k: round(v, 2) for k, v in sorted(dropped.items(), key=lambda kv: -kv[1])}})

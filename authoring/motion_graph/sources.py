@@ -45,10 +45,6 @@ class SourceFile:
     def frames(self) -> int:
         return len(self.labels)
 
-    @property
-    def seconds(self) -> float:
-        return max(0, self.frames - 1) / self.fps
-
 
 class LabelError(ValueError):
     pass
