@@ -16,8 +16,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 CMU = ROOT.parent / "shared" / "mocap" / "cmu"
-need_cmu = pytest.mark.skipif(not CMU.is_dir(), reason=f"CMU motion capture not found at {CMU} "
-                              "(../shared/mocap/cmu beside the project)")
 
 # The MotionBuilder-family files (A and A'): walks, a run, hops with turns on the spot, walking
 # on uneven ground with turns, dribbling with 90-degree turns on the spot, walking forward /
