@@ -3,6 +3,7 @@
 The planner's own numbers are never asserted on: the checker recomputes arrivals, per-frame
 adjustment and overlaps from the baked tracks."""
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
@@ -159,7 +160,7 @@ def test_standing_at_the_last_goal_is_clear_of_earlier_characters(default_graph,
     """After its last goal a character stands there to the end; the planner's final test
     covers that too, so it arrives after the character planned before it has passed (the
     checker finds no overlap). Without the test of the held position it stands in the way."""
-    import runtime.crowd.scheduler as sched
+    import runtime.crowd.goals as goals_mod
     sc = _stand_in_the_way_scenario()
     res = plan_scenario(sc, default_graph)
     rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
@@ -168,7 +169,7 @@ def test_standing_at_the_last_goal_is_clear_of_earlier_characters(default_graph,
     c0, c1 = res.characters
     passed_origin = int(np.argmin(np.abs(c0.track.root[:, 0])))
     assert c1.arrivals[0] > passed_origin          # it waited for c0
-    monkeypatch.setattr(sched, "hold_tail", lambda *a: None)
+    monkeypatch.setattr(goals_mod, "hold_tail", lambda *a: None)
     blind = plan_scenario(_stand_in_the_way_scenario(), default_graph)
     rep = check_crowd(sc, {c.name: c.track for c in blind.characters}, default_graph)
     assert rep.summary()["character_overlap_pairs"] == 1
@@ -331,7 +332,7 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
         node = args[3]           # (ctx, results, ci, node, rng)
         calls.append((node, kw.get("retry")))
         out = real(*args, **kw)
-        return out if len(calls) > 1 else out[:3] + (["forced warning"], out[4])
+        return out if len(calls) > 1 else dataclasses.replace(out, warnings=["forced warning"])
 
     monkeypatch.setattr(sched, "plan_goals", fake)
     sc = parse_scenario({"name": "one", "duration": 8.0, "seed": 0, "synthesis": {"passes": 1},
@@ -346,8 +347,11 @@ def test_a_failed_character_is_planned_again_from_the_other_start_node(default_g
 def test_further_tries_at_a_failed_segment_get_retry_n_max_iterations(default_graph):
     """A segment that cannot meet eps (a tolerance no motion meets) searches n_max iterations
     from the first start node; the try from the other start node gets retry_n_max, and every
-    repair pass retry_n_max per start node."""
-    for passes, want in ((1, 40 + 15), (2, 40 + 15 + 2 * 15)):
+    repair pass retry_n_max per start node. Each failed try of the first pass then steps down
+    the ladder: the two relaxed-eps rungs (no window: no later or late arrival) get retry_n_max
+    each; repairs try only what keeps every constraint."""
+    ladder = 2 * 15
+    for passes, want in ((1, 40 + ladder + 15 + ladder), (2, 40 + ladder + 15 + ladder + 2 * 15)):
         sc = parse_scenario({"name": "one", "duration": 8.0, "seed": 0,
                              "synthesis": {"passes": passes, "epsilon": [1e-7, 1e-5, 1e-7]},
                              "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0,
@@ -647,7 +651,7 @@ def test_the_final_test_finds_the_first_collision_and_collides_early_uses_it(def
     """final_collision returns the first output frame whose cylinder hits a planned character
     (the compiled index stops at it), one past the motion when only the held end position is
     hit, else None; collides_early compares that frame with the limit."""
-    from runtime.crowd.scheduler import collides_early
+    from runtime.crowd.goals import collides_early
     from runtime.crowd.spacetime import SpaceTimeIndex
     from runtime.crowd.planner import SegmentResult
     g = default_graph
@@ -684,7 +688,7 @@ def test_an_untimed_goal_whose_motions_collide_sets_off_later(default_graph, mon
     node, then goes -- the plan keeps the idling (back on the start configuration, within eps)
     and has no warning. Here the planner is made to fail every motion that starts at frame 0
     (as if it ran into someone right at the start)."""
-    import runtime.crowd.scheduler as sched
+    import runtime.crowd.goals as sched
     import runtime.crowd.planner.segment as synth
     real = synth.SegmentPlanner.run
     starts = []
@@ -755,7 +759,7 @@ def test_lane_clear_delay_is_the_first_whole_second_a_straight_walk_is_clear():
     """``lane_clear_delay``: the wait before a straight walk at 1.3 m/s from the start to the
     goal misses every planned character -- here one standing on the line until frame 400 --
     found by brute force over whole seconds."""
-    from runtime.crowd.scheduler import lane_clear_delay
+    from runtime.crowd.goals import lane_clear_delay
     from runtime.crowd.spacetime import SpaceTimeIndex
     index = SpaceTimeIndex(cell=1.6)
     f = np.arange(400)

@@ -13,16 +13,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..motion.graph import STATES
-from .idle import hold_tail, idle_for, idle_track, still_nodes, track_radius
-from .planner import (Config, CrowdPolicy, Goal, MotionCache, MotionLibrary, SearchParams, SegmentPlanner,
-                      run_to_completion)
+from .goals import plan_goals
+from .idle import still_nodes, track_radius
+from .planner import CrowdPolicy, MotionCache, MotionLibrary, SearchParams
 from .scenario import Scenario, ScenarioError, planning_order
-from .spacetime import SpaceTimeIndex
-from .tracks import Track, concat_tracks
+from .reservations import Reservations
+from .tracks import Track
 
-__all__ = ["CharacterResult", "CrowdResult", "PlanContext", "plan_scenario", "plan_one", "plan_goals", "repair",
-           "start_node", "seat_hold", "seated_radius", "collides_early", "lane_clear_delay", "clear_after",
-           "REPAIR_BLOCKERS"]
+__all__ = ["CharacterResult", "CrowdResult", "PlanContext", "plan_scenario", "plan_one", "repair",
+           "start_node", "seat_hold", "seated_radius", "crowd_order", "ORDERS", "REPAIR_BLOCKERS"]
 
 
 @dataclass
@@ -35,6 +34,8 @@ class CharacterResult:
     seconds: float = 0.0      # synthesis time
     iterations: int = 0
     motion_seconds: float = 0.0
+    ladder: list = field(default_factory=list)    # runtime.crowd.goals.LadderStep per goal that needed one
+    collides: bool = False    # not even standing at its start is clear (see plan_scenario)
 
 
 @dataclass
@@ -51,19 +52,6 @@ class CrowdResult:
 
     def by_name(self, name) -> CharacterResult:
         return next(c for c in self.characters if c.name == name)
-
-
-def clear_after(planner, res, index):
-    """When ``res``'s motion is clear but holding its end position is not (the final test
-    returns one past its frames), the first frame after which the held position stays clear;
-    else None."""
-    if planner.final_collision(res) != len(res.root):
-        return None
-    f2, xz2, r2 = planner.hold(res)
-    bad = np.asarray(index.overlaps(f2, xz2, np.asarray(r2, float) + planner.p.margin), dtype=bool)
-    if not bad.any():
-        return None
-    return int(f2[np.flatnonzero(bad)[-1]]) + int(round(0.5 * planner.p.fps))
 
 
 def start_node(graph, pose: str, where: str, still: np.ndarray | None = None) -> int:
@@ -115,15 +103,15 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     t_all = time.perf_counter()
     passes = max(1, int(sc.synthesis.get("passes", policy.passes)))
     ctx = PlanContext(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static,
-                      SpaceTimeIndex(cell=max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05)),
+                      Reservations(max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05),
+                                   n_total),
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
-    order = planning_order(sc)
+    order = crowd_order(sc, policy.order)
     for ci in order:
-        hold = seat_hold(sc.characters[ci], graph, fps)
+        hold, radius = start_hold(ctx, sc.characters[ci])
         if hold:
-            ctx.index.insert(ci, np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0),
-                             seated_radius(graph))
+            ctx.index.insert(ci, np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0), radius)
     results: dict[int, CharacterResult] = {}
     for ci in order:
         ctx.index.remove_owner(ci)          # its seat hold (if any) gives way to its plan
@@ -165,7 +153,7 @@ class PlanContext:
     fps: float
     n_total: int
     static: object
-    index: SpaceTimeIndex
+    index: Reservations
     still: np.ndarray
     log: object
     cache: MotionCache | None = None
@@ -178,7 +166,7 @@ class PlanContext:
         self.index.insert(ci, *self.cylinders(track))
 
 
-def plan_one(ctx: PlanContext, results, ci: int, k: int, attempt: int = 0) -> CharacterResult:
+def plan_one(ctx: PlanContext, results, ci: int, k: int, attempt: int = 0, give_up: bool = True) -> CharacterResult:
     """Character ``ci`` planned against the space-time index. Its random stream is seeded by
     the scenario seed, its index, the pass ``k`` and ``attempt``, so its plan depends on the
     order only through the characters already in the index.
@@ -202,20 +190,26 @@ def plan_one(ctx: PlanContext, results, ci: int, k: int, attempt: int = 0) -> Ch
         if k or attempt:
             extra = [a, attempt]
         rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + extra)
-        out = plan_goals(ctx, results, ci, node, rng, retry=bool(a or attempt))
-        iters += out[4]
-        if best is None or len(out[3]) < len(best[3]):
+        out = plan_goals(ctx, results, ci, node, rng, retry=bool(a or attempt), give_up=give_up)
+        iters += out.iterations
+        if best is None or _badness(out) < _badness(best):
             best = out
-        if not best[3]:
+        if not best.warnings:
             break
         if ctx.log and a == 0 and len(starts) > 1:
             ctx.log(f"{c.name}: planning again from the other {c.pose!r} start node")
-    track, arrivals, goals, warnings, _ = best
     if ctx.log:
-        for w in warnings:
+        for w in best.warnings:
             ctx.log(f"warning: {w}")
-    return CharacterResult(c.name, track, arrivals, goals, warnings, time.perf_counter() - t0, iters,
-                           arrivals[-1] / ctx.fps if arrivals else 0.0)
+    return CharacterResult(c.name, best.track, best.arrivals, best.goals, best.warnings, time.perf_counter() - t0,
+                           iters, best.arrivals[-1] / ctx.fps if best.arrivals else 0.0, best.ladder, best.collides)
+
+
+def _badness(plan) -> tuple:
+    """How far a character's plan is from clean, for choosing between plans: colliding worst,
+    then goals given up (waiting), then warnings (late, relaxed)."""
+    waiting = sum(s.kind == "waiting" for s in plan.ladder)
+    return (bool(plan.collides), waiting, len(plan.warnings))
 
 
 WALK_SPEED = 1.4    # m/s: a brisk walk, for telling whether a character has time to wait
@@ -223,7 +217,7 @@ HOLD_SPEED = 1.5    # m/s: the fastest straight walk for the earliest time a sea
 HOLD_GET_UP = 2.0   # s: ... plus the time it takes to get up
 
 
-def seat_hold(c, graph, fps: float) -> int:
+def seat_hold(c, graph, fps: float, standing: bool = False) -> int:
     """Frames from 0 during which a character who starts seated (``start = { seat = ... }``)
     has no need to leave yet: getting up and walking straight to its first goal at a brisk
     pace (``HOLD_GET_UP``, ``HOLD_SPEED``) still arrives before the goal's window opens.
@@ -233,10 +227,40 @@ def seat_hold(c, graph, fps: float) -> int:
     place. So until it is planned its seat is held for those frames: earlier characters
     treat it as sitting there (0 when it does not start seated or its first goal has no
     window)."""
-    if c.start_marker is None or not c.goals or c.goals[0].time is None or c.goals[0].position is None:
+    if (c.start_marker is None and not standing) or not c.goals or c.goals[0].time is None \
+            or c.goals[0].position is None:
         return 0
     d = float(np.hypot(*(np.asarray(c.goals[0].position, float) - np.asarray(c.position, float))))
-    return max(0, int((c.goals[0].time[0] - d / HOLD_SPEED - HOLD_GET_UP) * fps))
+    get_up = 0.0 if standing else HOLD_GET_UP
+    return max(0, int((c.goals[0].time[0] - d / HOLD_SPEED - get_up) * fps))
+
+
+def start_hold(ctx: PlanContext, c) -> tuple[int, float]:
+    """(frames from 0, radius) for which character ``c``'s start is held in the index until it
+    is planned (``CrowdPolicy.reserve_starts``): characters planned before it then treat it as
+    standing (or sitting) there. "none": only a seated start, while it has no need to leave
+    (:func:`seat_hold`); "needed": any start, while it has no need to leave yet (a brisk
+    straight walk still reaches its first goal before the window opens; 0 for an untimed first
+    goal); "all": any start, for the whole scenario -- the revised prioritized planning of Čáp,
+    Novák, Kleiner and Selecký (2015), which guarantees that standing at its start stays clear
+    of everyone planned before it."""
+    mode = ctx.policy.reserve_starts
+    seated = c.start_marker is not None
+    radius = seated_radius(ctx.graph) if seated else standing_radius(ctx.graph, ctx.still)
+    if mode == "all":
+        return ctx.n_total, radius
+    if mode == "needed" or seated:
+        return min(seat_hold(c, ctx.graph, ctx.fps, standing=not seated), ctx.n_total), radius
+    return 0, radius
+
+
+def standing_radius(graph, still) -> float:
+    """The bounding cylinder of a character standing at its start: the largest radius of the
+    idle clips of the "stand" nodes where one can stand still."""
+    nodes = graph.nodes_with_label("stand")
+    nodes = nodes[still[nodes]] if still is not None and still[nodes].any() else nodes
+    loops = np.flatnonzero(np.isin(graph.edge_src, nodes) & (graph.edge_src == graph.edge_dst))
+    return float(graph.edge_radius[loops].max()) if len(loops) else float(graph.edge_radius.max())
 
 
 def seated_radius(graph) -> float:
@@ -255,6 +279,63 @@ def time_to_wait(c, policy: CrowdPolicy) -> bool:
         return False
     d = float(np.hypot(*(np.asarray(c.goals[0].position, float) - np.asarray(c.position, float))))
     return c.goals[0].time[0] - d / WALK_SPEED > policy.wait_slack
+
+
+ORDERS = ("file", "longest", "earliest", "shortest")
+
+
+def crowd_order(sc: Scenario, how: str = "file") -> list[int]:
+    """The order characters are planned in (prioritized planning: each one avoids those before
+    it). Always after the characters whose arrivals time its goals (``after``); among the
+    others, by ``how``: "file" (the scenario's order), "longest" (the longest walk through all
+    its goals first), "shortest", or "earliest" (the earliest first arrival: its window's
+    start, or a walk at ``WALK_SPEED`` for an untimed goal)."""
+    import heapq
+    if how == "file":
+        return planning_order(sc)
+    if how not in ORDERS:
+        raise ScenarioError(f"{sc.path}: unknown planning order {how!r} (one of {', '.join(ORDERS)})")
+    planning_order(sc)        # checks the 'after' references and cycles
+    n = len(sc.characters)
+
+    def walk(c):
+        pts = [np.asarray(c.position, float)] + [np.asarray(g.position, float) for g in c.goals
+                                                  if g.position is not None]
+        return float(sum(np.hypot(*(b - a)) for a, b in zip(pts[:-1], pts[1:])))
+
+    def key(i):
+        c = sc.characters[i]
+        if how == "longest":
+            return -walk(c)
+        if how == "shortest":
+            return walk(c)
+        g = c.goals[0] if c.goals else None
+        if g is not None and g.time is not None:
+            return float(g.time[0])
+        return walk(c) / WALK_SPEED
+
+    idx = {c.name: i for i, c in enumerate(sc.characters)}
+    deps = [set() for _ in range(n)]
+    for i, c in enumerate(sc.characters):
+        for g in c.goals:
+            if g.after is not None and idx[g.after["character"]] != i:
+                deps[i].add(idx[g.after["character"]])
+    users = [[] for _ in range(n)]
+    for i, d in enumerate(deps):
+        for j in d:
+            users[j].append(i)
+    left = [len(d) for d in deps]
+    heap = [(key(i), i) for i in range(n) if left[i] == 0]
+    heapq.heapify(heap)
+    order = []
+    while heap:
+        _, i = heapq.heappop(heap)
+        order.append(i)
+        for u in users[i]:
+            left[u] -= 1
+            if left[u] == 0:
+                heapq.heappush(heap, (key(u), u))
+    return order
 
 
 def timing_characters(sc) -> set:
@@ -280,12 +361,16 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
             continue
         old = results[ci]
         index.remove_owner(ci)
-        new = plan_one(ctx, results, ci, k, attempt=1)
+        new = plan_one(ctx, results, ci, k, attempt=1, give_up=False)
         if not new.warnings:
             results[ci] = spent(new, old)
             ctx.insert(ci, new.track)
             continue
-        hits = index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin)
+        hits = {}
+        for step in new.ladder:
+            for b, n in step.blocked_by.items():
+                hits[b] = hits.get(b, 0) + n
+        hits.update(index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin))
         blockers = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1])
                     if b != ci and b not in timing][:REPAIR_BLOCKERS]
         tried = [new]          # plans made with every other character in place
@@ -296,13 +381,13 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
                 ctx.log(f"{sc.characters[ci].name}: planning it without {names}, then them around it")
             for b in blockers:
                 index.remove_owner(b)
-            first = plan_one(ctx, results, ci, k, attempt=2)
+            first = plan_one(ctx, results, ci, k, attempt=2, give_up=False)
             spare.append(first)
             again = {}
             if not first.warnings:
                 ctx.insert(ci, first.track)
                 for b in blockers:
-                    rb = plan_one(ctx, results, b, k, attempt=3)
+                    rb = plan_one(ctx, results, b, k, attempt=3, give_up=False)
                     if rb.warnings:
                         spare.append(rb)
                         break
@@ -319,130 +404,7 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
                     index.remove_owner(b)
             for b in blockers:              # as it was
                 ctx.insert(b, results[b].track)
-        cand = min(tried, key=lambda r: len(r.warnings))
-        keep = cand if len(cand.warnings) < len(old.warnings) else old
+        cand = min(tried, key=_badness)
+        keep = cand if _badness(cand) < _badness(old) else old
         results[ci] = spent(keep, *[r for r in [old] + tried + spare if r is not keep])
         ctx.insert(ci, keep.track)
-
-
-def collides_early(planner, res, frames: float) -> bool:
-    """Whether ``res``'s first collision with a character planned earlier comes within
-    ``frames`` of its start (setting off later helps there; not with someone passing its goal
-    later, or a jam halfway)."""
-    hit = planner.final_collision(res)
-    return hit is not None and hit < min(frames, len(res.root))
-
-
-LANE_RADIUS = 0.5    # m: the bounding cylinder of a walk in lane_clear_delay's straight proxy
-
-
-def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3, step: float = 1.0):
-    """Whole ``step`` seconds to stand at ``cfg`` before a straight walk at ``speed`` to the
-    goal (a proxy of the motion, a cylinder of ``radius``) misses every planned character in
-    ``index``; None when no such wait leaves 2 s of the scenario (``n_total`` frames) after the
-    walk. A crowd setting off together clears a lane in front of a character in this time --
-    the wait sized to it, where fixed delays of a few seconds were too short behind the
-    dense grids' front columns."""
-    a = np.array([cfg.x, cfg.z])
-    b = np.asarray(goal.position, float)
-    n = int(np.hypot(*(b - a)) / speed * fps) + 1
-    xz = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
-    d = 0.0
-    while cfg.frame + (d + 2.0) * fps + n < n_total:
-        f0 = cfg.frame + int(round(d * fps))
-        if index.first_overlap(f0 + np.arange(n), xz, radius) < 0:
-            return d
-        d += step
-    return None
-
-
-def plan_goals(ctx: PlanContext, results: dict, ci: int, node: int, rng, retry: bool = False):
-    """All goals of character ``ci`` from start node ``node`` against the characters in the
-    index: (track over the whole scenario, arrival frames, goals, warnings, iterations).
-
-    Each segment's search gets ``params.n_max`` iterations (``retry``: this is a further try at
-    the character -- the other start node, a repair pass -- and gets ``policy.retry_n_max``); the
-    further tries below (a later arrival, a later departure) get ``policy.retry_n_max``."""
-    sc, graph, params, policy, lib = ctx.sc, ctx.graph, ctx.params, ctx.policy, ctx.lib
-    fps, n_total, index, still = ctx.fps, ctx.n_total, ctx.index, ctx.still
-    n_retry = min(policy.retry_n_max, params.n_max)
-    c = sc.characters[ci]
-    planner = SegmentPlanner(lib, static=ctx.static,
-                             collide=lambda f, xz, r: index.overlaps(f, xz, r),
-                             collide_first=lambda f, xz, r: index.first_overlap(f, xz, r),
-                             collide_runs=lambda f, xz, r, cnt: index.any_overlap_runs(f, xz, r, cnt),
-                             roadmap=ctx.roadmap, env=ctx.env, params=params)
-    planner.cache = ctx.cache
-    cfg = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
-    parts = []
-    arrivals, goals, warnings = [], [], []
-    iters = 0
-    for gi, gs in enumerate(c.goals):
-        window = gs.time
-        if gs.after is not None:
-            other = sc.character(gs.after["character"])
-            oi = sc.characters.index(other)
-            t_other = (results[oi].arrivals[gs.after["goal"]] / fps) if oi != ci else arrivals[gs.after["goal"]] / fps
-            w = (t_other + gs.after["within"][0], t_other + gs.after["within"][1])
-            window = w if window is None else (max(w[0], window[0]), min(w[1], window[1]))
-            if window[1] < window[0]:
-                raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: its time window and "
-                                    f"'after' window do not overlap")
-        nodes = graph.nodes_with_label(gs.pose) if gs.pose else None
-        if nodes is not None and len(nodes) == 0:
-            raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
-        goal = Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
-        goals.append(goal)
-        # after its last goal a character stands there to the end: that must be clear too
-        planner.hold = (lambda r: hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None
-        res = run_to_completion(planner.run(cfg, goal, rng, name=f"{c.name} goal {gi}",
-                                            n_max=n_retry if retry else None))
-        iters += res.iterations
-        if res.warning and planner.hold is not None and goal.window is None:
-            # the motion is clear but standing at the goal afterwards is in the way of a
-            # character planned earlier that passes there later: arrive after it has passed
-            late = clear_after(planner, res, index)
-            if late is not None and late < n_total - 2 * fps:
-                g2 = Goal(goal.position, goal.heading, goal.nodes, (late / fps, late / fps + 1.5), label=goal.label)
-                res2 = run_to_completion(planner.run(cfg, g2, rng, name=f"{c.name} goal {gi}", n_max=n_retry))
-                iters += res2.iterations
-                if not res2.warning:
-                    res = res2
-        if res.warning and res.collided and goal.window is None and still is not None and still[cfg.node] \
-                and collides_early(planner, res, policy.depart_within * fps):
-            # an untimed goal whose motions all run into characters planned earlier (a crowd
-            # setting off together): stand a while first, then go -- the ones ahead are then
-            # further on
-            delays = policy.depart_delays
-            dc = lane_clear_delay(index, cfg, goal, fps, n_total, LANE_RADIUS + params.margin) \
-                if policy.depart_clear else None
-            if dc:          # (0: the straight walk is clear now, the fixed delays are tried)
-                delays = (dc, dc + 3.0)
-            for d in delays:
-                idle = idle_for(lib, graph, cfg, d, fps)
-                frames = cfg.frame + np.arange(len(idle))
-                rad = track_radius(graph, idle) + params.margin
-                if np.asarray(index.overlaps(frames, idle.root[:, :2], rad), dtype=bool).any():
-                    break           # someone passes where it stands: waiting longer will not help
-                later = Config(cfg.node, *(float(v) for v in idle.root[-1]), int(frames[-1]))
-                res2 = run_to_completion(planner.run(later, goal, rng, name=f"{c.name} goal {gi}",
-                                                     n_max=n_retry))
-                iters += res2.iterations
-                if not res2.warning:
-                    parts.append(idle)
-                    res = res2
-                    break
-        if res.warning:
-            warnings.append(res.warning)
-        parts.append(Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame))
-        cfg = res.end
-        arrivals.append(cfg.frame)
-    track = concat_tracks(parts) if parts else idle_track(lib, cfg, n_total)
-    if len(track) > n_total:
-        warnings.append(f"{c.name}: motion runs {len(track) / fps:.1f} s, past the scenario's {sc.duration} s")
-        n_total_c = len(track)
-    else:
-        n_total_c = n_total
-    if len(track) < n_total_c:
-        track = concat_tracks([track, idle_track(lib, cfg, n_total_c - len(track) + 1)])
-    return track.slice(0, n_total), arrivals, goals, warnings, iters

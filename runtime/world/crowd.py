@@ -24,12 +24,14 @@ from enum import Enum
 
 import numpy as np
 
+from ..crowd.goals import SegmentLadder, with_prefix
 from ..crowd.idle import still_nodes
-from ..crowd.planner import Config, CrowdPolicy, Goal, MotionCache, MotionLibrary, SearchParams, SegmentPlanner
+from ..crowd.planner import (Config, CrowdPolicy, Goal, MotionCache, MotionLibrary, SearchParams, SegmentPlanner,
+                             SegmentResult)
 from ..crowd.scenario import BOX_REACH
 from ..crowd.spacetime import SpaceTimeIndex
 from ..crowd.tracks import Track
-from .occupancy import Occupancy
+from .occupancy import Occupancy, PlanningView
 from .planning import PlanningQueue
 from .playback import Playback
 
@@ -45,6 +47,11 @@ RETRY_QUEUE = 8            # ... when fewer than this many characters wait for t
 LATENCY = 12               # frames between "now" and the earliest hand-off
 
 ARRIVAL_EVENTS = {"go_to": "arrived", "sit": "sat", "stand": "stood", "pick_up": "picked_up", "put_down": "put_down"}
+
+
+_NO_MOTION = SegmentResult(False, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.float32),
+                           np.zeros((0, 3)), 0, Config(0, 0.0, 0.0, 0.0, 0), float("inf"), (0.0, 0.0, 0.0), 0, [],
+                           warning="no collision-free motion, even late or with eps relaxed", collided=True)
 
 
 def online_params(fps: float) -> SearchParams:
@@ -262,7 +269,10 @@ class CrowdSystem:
             self.world.emit("late", c.name, window=goal.window,
                             message="the arrival window has passed; planning without it")
             goal = Goal(goal.position, goal.heading, goal.nodes, None, goal.label)
-        job = planner.run(start, goal, self.rng, name=c.name)
+        n = self.params.n_max
+        ladder = SegmentLadder(PlanningView(self, c.slot), planner, c.name, self.rng, n,
+                               min(self.policy.retry_n_max, n))
+        job = ladder.plan(start, goal, 0)
         c.job_handoff = start
         c.job_window = goal.window
         c.state = CharacterState.PLANNING
@@ -300,7 +310,10 @@ class CrowdSystem:
                 return None
         return None
 
-    def _finish_job(self, c: Character, res) -> None:
+    def _finish_job(self, c: Character, out) -> None:
+        """Use a finished plan: ``out`` is the ladder's (wait before, SegmentResult, LadderStep)
+        or None when not even a late or relaxed motion is clear of everyone."""
+        res, step = (_NO_MOTION, None) if out is None else (with_prefix(out[0], out[1]), out[2])
         pend = c.goals.popleft()
         c.job = None
         now = self.world.frame
@@ -320,11 +333,11 @@ class CrowdSystem:
         dt = start_frame - res.start_frame
         end = Config(res.end.node, res.end.x, res.end.z, res.end.heading, res.end.frame + dt)
         problem = None
-        if not res.ok:
+        if not res.ok or res.warning:
             problem = res.warning or "no motion within the tolerance"
         elif self.occupancy.end_blocked(c.slot, end):
             problem = "standing at the goal would block a character already on its way there"
-        if problem and pend.retries < MAX_RETRY and (res.collided or res.ok) and len(self.queue.queue) < RETRY_QUEUE:
+        if problem and pend.retries < MAX_RETRY and len(self.queue.queue) < RETRY_QUEUE:
             # blocked by other characters: try once more after the rest of the queue (they will
             # have moved on by then) unless many others are waiting for the planner
             pend.retries += 1
@@ -335,8 +348,8 @@ class CrowdSystem:
         elif problem:
             # a failed plan is not played: the character keeps idling where it is
             self.stats["plans_failed"] += 1
-            self.world.emit("warning", c.name, message=f"{pend.kind}: plan not used ({problem}); keeps idling",
-                            goal=[float(v) for v in pend.goal.position])
+            self.world.emit("warning", c.name, message=f"{pend.kind}: plan not used ({problem}); it waits where "
+                            "it stands, clear of everyone", goal=[float(v) for v in pend.goal.position])
             c.state = CharacterState.IDLE
         else:
             self.stats["plans_done"] += 1
@@ -350,6 +363,12 @@ class CrowdSystem:
             heapq.heappush(self.due, (end.frame, self.seq, c))
             c.state = CharacterState.MOVING
             self.append_idle(c)
+            if step is not None and step.kind == "late":
+                self.world.emit("late", c.name, delay=step.delay_s, window=c.job_window,
+                                message=f"{pend.kind}: arrives {step.delay_s:.2f} s after its window ({step.reason})")
+            elif step is not None and step.kind == "relaxed":
+                self.world.emit("warning", c.name, eps_factor=step.eps_factor,
+                                message=f"{pend.kind}: adjustment {step.eps_factor:.2f} x eps ({step.reason})")
         if c.goals:
             c.state = CharacterState.QUEUED
             self.queue.push(c)

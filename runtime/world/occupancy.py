@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["IdleStretches", "Occupancy"]
+__all__ = ["IdleStretches", "Occupancy", "PlanningView"]
 
 
 class IdleStretches:
@@ -149,3 +149,61 @@ class Occupancy:
         d = np.hypot(xz[:, 0] - goal.position[0], xz[:, 1] - goal.position[1])
         r_goal = self.stay_r[goal.nodes].max() if goal.nodes is not None else self.stay_r.max()
         return bool(np.any(d < self.stay_r[pb.tail_node[s]] + r_goal))
+
+
+class PlanningView:
+    """What the crowd planner's ladder of alternatives (:mod:`runtime.crowd.goals`) asks of the
+    world it plans in, for one character of the World: the occupancy of everyone else as a
+    space-time query, and where they are at a frame (for a space-time route).
+
+    Args:
+        crowd: the World's :class:`~runtime.world.crowd.CrowdSystem`.
+        owner: the character's slot (left out of every query).
+    """
+
+    def __init__(self, crowd, owner: int):
+        self.crowd, self.owner = crowd, owner
+        self.graph, self.params, self.policy, self.lib = crowd.graph, crowd.params, crowd.policy, crowd.lib
+        self.fps, self.static, self.still = crowd.world.fps, crowd.static, crowd.still
+        pb = crowd.playback
+        self.n_total = int(crowd.world.frame + pb.size - 1)   # as far as a buffer reaches
+        self.index = self
+
+    # -- the space-time queries of the planner (the World's occupancy stands in for the index) --
+    def overlaps(self, frames, xz, radius):
+        frames = np.asarray(frames, dtype=np.int64)
+        return self.crowd.occupancy.collide(frames, np.asarray(xz, dtype=np.float64),
+                                            np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape),
+                                            self.owner)
+
+    def first_overlap(self, frames, xz, radius) -> int:
+        hit = np.flatnonzero(self.overlaps(frames, xz, radius))
+        return int(hit[0]) if len(hit) else -1
+
+    def any_overlap_runs(self, frames, xz, radius, counts):
+        counts = np.asarray(counts, dtype=np.int64)
+        out = np.zeros(len(counts), dtype=bool)
+        if len(frames) == 0:
+            return out
+        hit = self.overlaps(frames, xz, radius)
+        nz = counts > 0
+        out[nz] = np.logical_or.reduceat(hit, (np.cumsum(counts) - counts)[nz])
+        return out
+
+    def overlapping_owners(self, frames, xz, radius, margin: float = 0.0) -> dict:
+        return {}
+
+    def at_frame(self, frame: int):
+        """(xz (M, 2), radius (M,)) of every other character at ``frame`` (standing at the end
+        of its buffer beyond it)."""
+        pb = self.crowd.playback
+        s = np.flatnonzero(pb.active)
+        s = s[s != self.owner]
+        f = np.minimum(frame, pb.tail[s])
+        xz = pb.buf_root[s, f % pb.size, :2]
+        g = self.graph
+        k = f % pb.size
+        r = np.maximum(g.frame_radius[pb.buf_a[s, k]], g.frame_radius[pb.buf_b[s, k]]).astype(np.float64)
+        beyond = frame > pb.tail[s]
+        r[beyond] = self.crowd.occupancy.stay_r[pb.tail_node[s[beyond]]]
+        return xz, r

@@ -75,6 +75,10 @@ class CrowdPolicy:
     runtime World."""
 
     passes: int = 3                # planning passes; passes after the first repair failed characters
+    space_time_seeds: bool = False  # seeds follow a route in space and time around the characters
+    #                                planned before when a walk along the static route runs into one
+    order: str = "file"            # planning order: "file", "longest", "shortest", "earliest"
+    #                                (runtime.crowd.scheduler.crowd_order)
     retry_n_max: int = 300         # search iterations of a further try at a segment that failed
     #                                (the other start node, a later departure or arrival, repairs)
     depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all
@@ -88,5 +92,8 @@ class CrowdPolicy:
     #                                a walking hub); None: per character, still first when its first
     #                                goal's window opens more than ``wait_slack`` s after it could walk there
     wait_slack: float = 3.0        # s (see start_still)
+    reserve_starts: str = "none"   # characters' starts held until they are planned: "none" (seated
+    #                                starts while they need not leave), "needed" (any start while
+    #                                it need not leave), "all" (any start, the whole scenario)
     reuse_motions: bool = True     # a motion found for one character is tried first for the next
     #                                with the same task relative to its start (motion_cache)

@@ -116,9 +116,11 @@ class SegmentPlanner:
         self.waited = s.waits
         return out
 
-    def run(self, start: Config, goal: Goal, rng: np.random.Generator, name: str = "", n_max: int | None = None):
+    def run(self, start: Config, goal: Goal, rng: np.random.Generator, name: str = "", n_max: int | None = None,
+            waypoints=None):
         """Generator: yields the kind of each next step (:class:`~.types.Step`); returns a
-        :class:`~.types.SegmentResult`. ``n_max``: the iteration limit (default ``params.n_max``).
+        :class:`~.types.SegmentResult`. ``n_max``: the iteration limit (default ``params.n_max``);
+        ``waypoints``: (n, 2) way points to seed along instead of the roadmap's.
 
         Seeds are made from the roadmap's way points; the randomized search then runs on them.
         When the search keeps finding splices below eps that collide with characters already
@@ -141,7 +143,7 @@ class SegmentPlanner:
             self.cache.misses += 1
         n_max = p.n_max if n_max is None else int(n_max)
         travel = self.travel_state(start.node)
-        base = self.waypoints(start, goal)
+        base = self.waypoints(start, goal) if waypoints is None else np.asarray(waypoints, dtype=np.float64)
         yield Step.SEED_EDGE
         tgt = goal.nodes
         budget = None

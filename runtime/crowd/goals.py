@@ -1,0 +1,440 @@
+"""All goals of one character, with a ladder of honest alternatives when a goal cannot be met.
+
+A character's goals are planned one after another from its start (Sung, Kovar and Gleicher
+2005, section 3.1), each segment against everyone already planned (the space-time index) and
+the environment. A segment is *clean* when its motion meets the goal exactly (position, heading,
+pose, arrival window) within the per-frame adjustment tolerance eps and collides with nobody.
+A motion that collides is never used. When no clean motion is found, the planner steps down a
+ladder, each rung reported:
+
+0. ``rerouted`` -- when the motion ran into characters planned before, a route in space and
+   time around them (:mod:`runtime.crowd.planner.route`) gives the seeds new way points and,
+   when it starts with a wait, a later departure.
+1. ``later arrival`` -- arrive later inside the window (the part of it after its middle; an
+   untimed last goal: after the character planned earlier that passes the goal has gone).
+2. ``later departure`` -- stand at the start of the segment first, then go (the whole seconds
+   after which a straight walk to the goal misses everyone planned, then fixed delays).
+3. ``late`` -- arrive after the window (``delay_s``: how much after its end).
+4. ``relaxed`` -- accept a per-frame adjustment up to ``RELAXED_EPS`` x eps (``eps_factor``: the
+   largest rate over eps).
+5. ``waiting`` -- give the goal (and the ones after it) up and stand where the character is,
+   clear of everyone; if even that is not clear, stand at the start for the whole scenario.
+
+Rungs 0-2 keep every constraint; 3-5 give one up and add a warning. The ladder is a generator
+like the planner (:class:`SegmentLadder`), so the World runs it time-sliced too. The result says, per
+goal, which rung was used (:class:`LadderStep`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .idle import hold_tail, idle_for, idle_track, track_radius
+from .planner import Config, Goal, SegmentPlanner, Step, run_to_completion
+from .planner.route import timed_route
+from .scenario import ScenarioError
+from .tracks import Track, concat_tracks
+
+__all__ = ["LadderStep", "GoalsPlan", "SegmentLadder", "with_prefix", "plan_goals", "clear_after", "collides_early", "lane_clear_delay",
+           "LATE_SHIFTS", "RELAXED_EPS", "LANE_RADIUS"]
+
+LATE_SHIFTS = (3.0, 8.0, 15.0)   # s the window is moved later, in turn, for a late arrival
+RELAXED_EPS = (2.0, 4.0)         # eps scales tried, in turn, for a relaxed adjustment
+LANE_RADIUS = 0.5                # m: the bounding cylinder of a walk in lane_clear_delay's straight proxy
+
+
+@dataclass
+class LadderStep:
+    """What a goal's plan gave up or changed (see the module docstring).
+
+    Attributes:
+        goal: the goal's index.
+        kind: "rerouted", "later arrival", "later departure", "late", "relaxed" or "waiting".
+        delay_s: seconds later than asked (departure delay, or arrival after the window).
+        eps_factor: largest per-frame adjustment over eps ("relaxed").
+        reason: why the rung was needed.
+        blocked_by: {owner: samples} of the planned characters the goal's first motion ran into.
+    """
+
+    goal: int
+    kind: str
+    delay_s: float = 0.0
+    eps_factor: float = 1.0
+    reason: str = ""
+    blocked_by: dict = field(default_factory=dict)
+
+    @property
+    def keeps_constraints(self) -> bool:
+        return self.kind in ("rerouted", "later arrival", "later departure")
+
+    def to_dict(self) -> dict:
+        return {"goal": self.goal, "kind": self.kind, "delay_s": round(float(self.delay_s), 3),
+                "eps_factor": round(float(self.eps_factor), 3), "reason": self.reason}
+
+
+@dataclass
+class GoalsPlan:
+    """One character's plan over the whole scenario."""
+
+    track: Track
+    arrivals: list                  # clock frame of each goal reached
+    goals: list                     # resolved Goals (absolute windows, allowed nodes)
+    warnings: list
+    iterations: int
+    ladder: list = field(default_factory=list)   # LadderStep per goal that needed one
+    collides: bool = False          # even standing at the start runs into someone (rare)
+
+
+def clear_after(planner, res, index):
+    """When ``res``'s motion is clear but holding its end position is not (the final test
+    returns one past its frames), the first frame after which the held position stays clear;
+    else None."""
+    if planner.final_collision(res) != len(res.root):
+        return None
+    f2, xz2, r2 = planner.hold(res)
+    bad = np.asarray(index.overlaps(f2, xz2, np.asarray(r2, float) + planner.p.margin), dtype=bool)
+    if not bad.any():
+        return None
+    return int(f2[np.flatnonzero(bad)[-1]]) + int(round(0.5 * planner.p.fps))
+
+
+def collides_early(planner, res, frames: float) -> bool:
+    """Whether ``res``'s first collision with a character planned earlier comes within
+    ``frames`` of its start (setting off later helps there; not with someone passing its goal
+    later, or a jam halfway)."""
+    hit = planner.final_collision(res)
+    return hit is not None and hit < min(frames, len(res.root))
+
+
+def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3, step: float = 1.0):
+    """Whole ``step`` seconds to stand at ``cfg`` before a straight walk at ``speed`` to the
+    goal (a proxy of the motion, a cylinder of ``radius``) misses every planned character in
+    ``index``; None when no such wait leaves 2 s of the scenario (``n_total`` frames) after the
+    walk. A crowd setting off together clears a lane in front of a character in this time."""
+    a = np.array([cfg.x, cfg.z])
+    b = np.asarray(goal.position, float)
+    n = int(np.hypot(*(b - a)) / speed * fps) + 1
+    xz = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    d = 0.0
+    while cfg.frame + (d + 2.0) * fps + n < n_total:
+        f0 = cfg.frame + int(round(d * fps))
+        if index.first_overlap(f0 + np.arange(n), xz, radius) < 0:
+            return d
+        d += step
+    return None
+
+
+WALK_CHECK_SPEED = 1.2    # m/s of the straight proxy walk that decides whether a route is busy
+
+
+def _route_blocked(index, route_xz, frame0: int, fps: float, radius: float) -> bool:
+    """Whether a walk along ``route_xz`` at ``WALK_CHECK_SPEED`` from ``frame0`` (a disc of
+    ``radius``, sampled every 3 frames) runs into a planned character."""
+    seg = np.hypot(*np.diff(route_xz, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    n = int(cum[-1] / WALK_CHECK_SPEED * fps) + 1
+    f = np.arange(0, n, 3)
+    s = np.minimum(f / fps * WALK_CHECK_SPEED, cum[-1])
+    j = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
+    u = (s - cum[j]) / np.maximum(seg[j], 1e-12)
+    xz = route_xz[j] + u[:, None] * (route_xz[j + 1] - route_xz[j])
+    return index.first_overlap(frame0 + f, xz, np.full(len(f), radius)) >= 0
+
+
+def _clear_track(ctx, track: Track) -> bool:
+    """Whether ``track`` (on the clock from its ``start_frame``) collides with nobody in the
+    index and no obstacle."""
+    frames = track.start_frame + np.arange(len(track))
+    rad = track_radius(ctx.graph, track) + ctx.params.margin
+    xz = track.root[:, :2]
+    if ctx.static is not None and np.any(ctx.static(xz) < rad):
+        return False
+    return not np.asarray(ctx.index.overlaps(frames, xz, rad), dtype=bool).any()
+
+
+class SegmentLadder:
+    """Plans one goal from ``cfg`` with the ladder (rungs 1-4); see the module docstring.
+
+    Args:
+        ctx: what the plan is made against: ``index`` (the space-time queries ``overlaps``,
+            ``first_overlap``, ``any_overlap_runs``, ``overlapping_owners``, ``at_frame``),
+            ``static``, ``still``, ``graph``, ``lib``, ``params``, ``policy``, ``fps``,
+            ``n_total`` (the last frame + 1 a plan may use) -- a scheduler's
+            :class:`~runtime.crowd.scheduler.PlanContext` or the World's
+            :class:`~runtime.world.occupancy.PlanningView`.
+        planner: the character's :class:`SegmentPlanner` (its ``hold`` is the last goal's).
+        name: for messages. rng: the random stream.
+        n_first, n_retry: search iterations of the first try and of each rung.
+        give_up: use the rungs that give a constraint up (late, relaxed); without them the
+            ladder only tries what keeps every constraint.
+    """
+
+    def __init__(self, ctx, planner: SegmentPlanner, name: str, rng, n_first, n_retry, give_up: bool = True):
+        self.ctx, self.planner, self.name, self.rng = ctx, planner, name, rng
+        self.give_up = give_up
+        self.n_first, self.n_retry = n_first, n_retry
+        self.iterations = 0
+        self.last_blockers: dict = {}
+
+    def run(self, cfg: Config, goal: Goal, n_max=None, planner=None, waypoints=None):
+        """Generator: one segment search (time-sliced like the planner's own steps)."""
+        res = yield from (planner or self.planner).run(cfg, goal, self.rng, name=self.name,
+                                                        n_max=self.n_retry if n_max is None else n_max,
+                                                        waypoints=waypoints)
+        self.iterations += res.iterations
+        return res
+
+    def plan(self, cfg: Config, goal: Goal, gi: int):
+        """Generator (yields planner step kinds); returns (idle prefix Track or None,
+        SegmentResult, LadderStep or None) -- the result is clean or within the rung reported,
+        and collision-free -- or None when every rung failed."""
+        ctx, planner = self.ctx, self.planner
+        if ctx.policy.space_time_seeds:
+            out = yield from self._rerouted(cfg, goal, None, n_max=self.n_first, only_if_blocked=True)
+            if out is not None:
+                idle, res, d = out
+                step = None if idle is None else LadderStep(gi, "later departure", delay_s=d,
+                                                            reason="the way is busy")
+                return idle, res, step
+        res = yield from self.run(cfg, goal, n_max=self.n_first)
+        if not res.warning:
+            return None, res, None
+        first = res
+        self.last_blockers = self.blockers(first) if first.collided else {}
+        out = yield from self._ladder(cfg, goal, gi, first)
+        if out is not None and out[2] is not None:
+            out[2].blocked_by = self.last_blockers
+        return out
+
+    def blockers(self, res) -> dict:
+        """{owner: samples} of the planned characters ``res``'s motion runs into."""
+        ctx = self.ctx
+        rad = np.maximum(ctx.graph.frame_radius[res.frames_a], ctx.graph.frame_radius[res.frames_b]) + ctx.params.margin
+        return ctx.index.overlapping_owners(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
+
+    def _ladder(self, cfg: Config, goal: Goal, gi: int, first):
+        """Rungs 1-4 after ``first`` failed."""
+        ctx, planner = self.ctx, self.planner
+        res = first
+        if first.collided:
+            out = yield from self._rerouted(cfg, goal, first)
+            if out is not None:
+                idle, res2, d = out
+                return idle, res2, LadderStep(gi, "later departure" if d > 0 else "rerouted", delay_s=d,
+                                              reason=first.warning)
+        # 1. a later arrival inside the window
+        if planner.hold is not None and goal.window is None:
+            # the motion is clear but standing at the goal afterwards is in the way of a
+            # character planned earlier that passes there later: arrive after it has passed
+            late = clear_after(planner, res, ctx.index)
+            if late is not None and late < ctx.n_total - 2 * ctx.fps:
+                g2 = Goal(goal.position, goal.heading, goal.nodes, (late / ctx.fps, late / ctx.fps + 1.5),
+                          label=goal.label)
+                res2 = yield from self.run(cfg, g2)
+                if not res2.warning:
+                    return None, res2, LadderStep(gi, "later arrival", reason="someone passes the goal later")
+        elif goal.window is not None and goal.window[1] - goal.window[0] >= 0.4:
+            mid = 0.5 * (goal.window[0] + goal.window[1])
+            res2 = yield from self.run(cfg, Goal(goal.position, goal.heading, goal.nodes, (mid, goal.window[1]), goal.label))
+            if not res2.warning:
+                return None, res2, LadderStep(gi, "later arrival", reason=first.warning)
+        # 2. a later departure
+        out = yield from self._later_departure(cfg, goal, first)
+        if out is not None:
+            idle, res2, d = out
+            return idle, res2, LadderStep(gi, "later departure", delay_s=d, reason=first.warning)
+        if not self.give_up:
+            return None
+        # 3. late
+        if goal.window is not None:
+            for s in LATE_SHIFTS:
+                w = (goal.window[0] + s, goal.window[1] + s)
+                if w[1] * ctx.fps >= ctx.n_total - 1:
+                    break
+                res2 = yield from self.run(cfg, Goal(goal.position, goal.heading, goal.nodes, w, goal.label))
+                if not res2.warning:
+                    delay = max(0.0, res2.end.frame / ctx.fps - goal.window[1])
+                    return None, res2, LadderStep(gi, "late", delay_s=delay, reason=first.warning)
+        # 4. a relaxed per-frame adjustment
+        for scale in RELAXED_EPS:
+            p2 = replace(planner.p, eps=tuple(e * scale for e in planner.p.eps))
+            relaxed = SegmentPlanner(planner.lib, static=planner.collider.static, collide=planner.collider.collide,
+                                     roadmap=planner.roadmap, env=planner.env, params=p2,
+                                     collide_first=planner.collider.collide_first,
+                                     collide_runs=planner.collider.collide_runs)
+            relaxed.hold = planner.hold
+            res2 = yield from self.run(cfg, goal, planner=relaxed)
+            if not res2.warning:
+                factor = max(r / e for r, e in zip(res2.rates, planner.p.eps))
+                return None, res2, LadderStep(gi, "relaxed", eps_factor=factor, reason=first.warning)
+        return None
+
+    def _rerouted(self, cfg: Config, goal: Goal, first, n_max=None, only_if_blocked: bool = False):
+        """The segment planned along a route in space and time around the characters planned
+        before (:func:`~runtime.crowd.planner.route.timed_route`), leaving when the route does:
+        (idle Track or None, SegmentResult, delay in s) or None. ``only_if_blocked``: None when
+        a walk along the static route at ``WALK_CHECK_SPEED`` already misses everyone."""
+        ctx = self.ctx
+        index = ctx.index
+        base = self.planner.waypoints(cfg, goal)
+        radius = LANE_RADIUS + ctx.params.margin
+        if only_if_blocked and not _route_blocked(index, base, cfg.frame, ctx.fps, radius):
+            return None
+        hold = None
+        if self.planner.hold is not None:
+            gx = np.asarray(goal.position, float)
+
+            def hold(frame):
+                f = np.arange(frame, ctx.n_total, 5)
+                return len(f) == 0 or index.first_overlap(f, np.broadcast_to(gx, (len(f), 2)),
+                                                          np.full(len(f), radius)) < 0
+        yield Step.WAYPOINTS
+        route = timed_route(base, cfg.frame, index.at_frame, ctx.static, radius, ctx.n_total - 1, hold)
+        if route is None:
+            return None
+        pts, _, delay = route
+        idle, start = None, cfg
+        if delay >= ctx.fps and ctx.still is not None and ctx.still[cfg.node]:
+            idle = idle_for(ctx.lib, ctx.graph, cfg, delay / ctx.fps, ctx.fps)
+            if not _clear_track(ctx, idle):
+                idle = None
+            else:
+                start = Config(cfg.node, *(float(v) for v in idle.root[-1]), int(cfg.frame + len(idle) - 1))
+                pts = np.concatenate([np.array([[start.x, start.z]]), pts[1:]])
+        res = yield from self.run(start, goal, waypoints=pts, n_max=n_max)
+        if res.warning:
+            return None
+        return idle, res, 0.0 if idle is None else (len(idle) - 1) / ctx.fps
+
+    def _later_departure(self, cfg: Config, goal: Goal, first):
+        """Stand at ``cfg`` for a while, then go: (idle Track, SegmentResult, seconds) or None.
+        Only from a node where one can stand still, and only when the first motion ran into
+        someone early (a crowd setting off together; not a jam far on, nor a wall)."""
+        ctx, policy = self.ctx, self.ctx.policy
+        if not (first.collided and ctx.still is not None and ctx.still[cfg.node]
+                and collides_early(self.planner, first, policy.depart_within * ctx.fps)):
+            return None
+        delays = policy.depart_delays
+        dc = lane_clear_delay(ctx.index, cfg, goal, ctx.fps, ctx.n_total, LANE_RADIUS + ctx.params.margin) \
+            if policy.depart_clear else None
+        if dc:          # (0: the straight walk is clear now, the fixed delays are tried)
+            delays = (dc, dc + 3.0)
+        for d in delays:
+            idle = idle_for(ctx.lib, ctx.graph, cfg, d, ctx.fps)
+            if goal.window is not None and (cfg.frame + len(idle)) / ctx.fps > goal.window[1] - 1.0:
+                break
+            if not _clear_track(ctx, idle):
+                break           # someone passes where it stands: waiting longer will not help
+            later = Config(cfg.node, *(float(v) for v in idle.root[-1]), int(cfg.frame + len(idle) - 1))
+            res2 = yield from self.run(later, goal)
+            if not res2.warning:
+                return idle, res2, d
+        return None
+
+
+def with_prefix(idle: Track | None, res):
+    """``res`` with the idle track ``idle`` (a wait before it) in front, as one result."""
+    if idle is None:
+        return res
+    tr = concat_tracks([idle, Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame)])
+    return replace(res, frames_a=tr.frames_a, frames_b=tr.frames_b, frames_t=tr.frames_t, root=tr.root,
+                   start_frame=idle.start_frame)
+
+
+def _resolve_goal(ctx, results, ci, gi, gs, arrivals):
+    """The :class:`Goal` of scenario goal ``gs`` (window including its ``after`` constraint)."""
+    sc, fps = ctx.sc, ctx.fps
+    c = sc.characters[ci]
+    window = gs.time
+    if gs.after is not None:
+        other = sc.character(gs.after["character"])
+        oi = sc.characters.index(other)
+        t_other = (results[oi].arrivals[gs.after["goal"]] / fps) if oi != ci else arrivals[gs.after["goal"]] / fps
+        w = (t_other + gs.after["within"][0], t_other + gs.after["within"][1])
+        window = w if window is None else (max(w[0], window[0]), min(w[1], window[1]))
+        if window[1] < window[0]:
+            raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: its time window and "
+                                f"'after' window do not overlap")
+    nodes = ctx.graph.nodes_with_label(gs.pose) if gs.pose else None
+    if nodes is not None and len(nodes) == 0:
+        raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
+    return Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
+
+
+def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False, give_up: bool = True) -> GoalsPlan:
+    """All goals of character ``ci`` from start node ``node`` against the characters in the
+    index (``ctx``: a :class:`~runtime.crowd.scheduler.PlanContext`).
+
+    Each segment's first search gets ``params.n_max`` iterations (``retry``: this is a further
+    try at the character -- the other start node, a repair pass -- and gets
+    ``policy.retry_n_max``); every rung of the ladder gets ``policy.retry_n_max``. ``give_up``:
+    the ladder may give a constraint up (see :class:`SegmentLadder`)."""
+    sc, graph, params, policy, lib = ctx.sc, ctx.graph, ctx.params, ctx.policy, ctx.lib
+    fps, n_total, index = ctx.fps, ctx.n_total, ctx.index
+    n_retry = min(policy.retry_n_max, params.n_max)
+    c = sc.characters[ci]
+    planner = SegmentPlanner(lib, static=ctx.static,
+                             collide=lambda f, xz, r: index.overlaps(f, xz, r),
+                             collide_first=lambda f, xz, r: index.first_overlap(f, xz, r),
+                             collide_runs=lambda f, xz, r, cnt: index.any_overlap_runs(f, xz, r, cnt),
+                             roadmap=ctx.roadmap, env=ctx.env, params=params)
+    planner.cache = ctx.cache
+    start = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
+    cfg = start
+    parts, arrivals, goals, warnings, ladder = [], [], [], [], []
+    iters = 0
+    waiting = False
+    for gi, gs in enumerate(c.goals):
+        goal = _resolve_goal(ctx, results, ci, gi, gs, arrivals)
+        goals.append(goal)
+        # after its last goal a character stands there to the end: that must be clear too
+        planner.hold = (lambda r: hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None
+        seg = SegmentLadder(ctx, planner, f"{c.name} goal {gi}", rng, n_retry if retry else params.n_max, n_retry,
+                            give_up)
+        out = run_to_completion(seg.plan(cfg, goal, gi))
+        iters += seg.iterations
+        if out is None:
+            reason = f"{c.name} goal {gi}: no collision-free motion, even late or with eps relaxed"
+            ladder.append(LadderStep(gi, "waiting", reason=reason, blocked_by=seg.last_blockers))
+            warnings.append(f"{reason}; it waits in place (goal {gi}"
+                            + (f" and {len(c.goals) - gi - 1} later" if gi < len(c.goals) - 1 else "") + " given up)")
+            waiting = True
+            break
+        idle, res, step = out
+        if step is not None:
+            ladder.append(step)
+            if not step.keeps_constraints:
+                detail = {"late": f"arrives {step.delay_s:.2f} s after its window",
+                          "relaxed": f"adjustment {step.eps_factor:.2f} x eps"}[step.kind]
+                warnings.append(f"{c.name} goal {gi}: {step.kind}: {detail} ({step.reason})")
+        if idle is not None:
+            parts.append(idle)
+        parts.append(Track(res.frames_a, res.frames_b, res.frames_t, res.root, res.start_frame))
+        cfg = res.end
+        arrivals.append(cfg.frame)
+    collides = False
+    if waiting and not _stays_clear(ctx, cfg, n_total):
+        # standing where it got to is in someone's way: stand at the start for the whole scenario
+        parts, arrivals, cfg = [], [], start
+        ladder[-1].reason += "; standing there was not clear either, so it stays at its start"
+        collides = not _stays_clear(ctx, start, n_total)
+    track = concat_tracks(parts) if parts else idle_track(lib, cfg, n_total)
+    if len(track) > n_total:
+        warnings.append(f"{c.name}: motion runs {len(track) / fps:.1f} s, past the scenario's {sc.duration} s")
+        n_total_c = len(track)
+    else:
+        n_total_c = n_total
+    if len(track) < n_total_c:
+        track = concat_tracks([track, idle_track(lib, cfg, n_total_c - len(track) + 1)])
+    if collides:
+        warnings.append(f"{c.name}: standing at its start runs into characters planned earlier")
+    return GoalsPlan(track.slice(0, n_total), arrivals, goals, warnings, iters, ladder, collides)
+
+
+def _stays_clear(ctx, cfg: Config, n_total: int) -> bool:
+    """Whether idling at ``cfg`` from its frame to the scenario's end is clear of everyone."""
+    n = n_total - cfg.frame
+    if n <= 1:
+        return True
+    return _clear_track(ctx, idle_track(ctx.lib, cfg, n))

@@ -1,0 +1,104 @@
+"""Never write a colliding motion: the space-time route, the ladder of alternatives, the World.
+
+What is asserted comes from the independent checker (overlaps, windows, eps) and from direct
+geometric tests of the tracks, not from the planner's own flags."""
+import numpy as np
+import pytest
+
+from runtime.crowd.checker import check_crowd, overlapping_pairs
+from runtime.crowd.planner.route import timed_route
+from runtime.crowd.reservations import Reservations
+from runtime.crowd.scenario import parse_scenario
+from runtime.crowd.scheduler import plan_scenario
+
+
+def _walkers(n=5, frames=600):
+    """A line of ``n`` characters walking along +x across z = 5."""
+    idx = Reservations(1.6, 1500)
+    f = np.arange(frames)
+    for o in range(n):
+        idx.insert(o, f, np.stack([-6 + f * 0.02 + o * 1.2, np.full(frames, 5.0)], 1), np.full(frames, 0.4))
+    return idx
+
+
+def _sample(pts, frames):
+    """The route walked straight between its way points at their frames, one sample a frame."""
+    xs = [np.linspace(pts[i], pts[i + 1], frames[i + 1] - frames[i], endpoint=False) for i in range(len(pts) - 1)]
+    xz = np.concatenate(xs + [pts[-1:]])
+    return frames[0] + np.arange(len(xz)), xz
+
+
+def test_timed_route_keeps_clear_of_planned_characters():
+    idx = _walkers()
+    straight = np.array([[0.0, 0.0], [0.0, 10.0]])
+    # the straight walk at 1.2 m/s runs into the line of walkers
+    f = np.arange(0, 250)
+    walk = np.stack([np.zeros(len(f)), np.minimum(f / 30 * 1.2, 10.0)], 1)
+    assert idx.overlaps(f, walk, np.full(len(f), 0.4)).any()
+    pts, frames, delay = timed_route(straight, 0, idx.at_frame, None, 0.52, 1200)
+    assert np.allclose(pts[0], [0, 0]) and np.allclose(pts[-1], [0, 10])
+    ff, xz = _sample(pts, frames)
+    assert not idx.overlaps(ff, xz, np.full(len(ff), 0.4)).any()
+    speeds = np.hypot(*np.diff(xz, axis=0).T) * 30
+    assert speeds.max() < 1.7                     # a walk, not a dash
+    # nobody in the way: the route is the straight line, leaving at once
+    empty = Reservations(1.6, 1500)
+    pts2, frames2, delay2 = timed_route(straight, 0, empty.at_frame, None, 0.52, 1200)
+    assert delay2 == 0 and len(pts2) == 2 and frames2[-1] <= 10 / 1.0 * 30
+
+
+def test_timed_route_gives_up_when_the_goal_stays_taken():
+    idx = Reservations(1.6, 1500)
+    f = np.arange(1500)
+    idx.insert(0, f, np.broadcast_to([0.0, 10.0], (1500, 2)), np.full(1500, 0.4))
+    assert timed_route(np.array([[0.0, 0.0], [0.0, 10.0]]), 0, idx.at_frame, None, 0.52, 1200) is None
+
+
+def _blocked_goal_scenario():
+    """c0 walks to (0, 6) and stands there to the end; c1, planned after it, must go to the
+    same spot: no clean plan exists for c1."""
+    return parse_scenario({"name": "blocked", "duration": 14.0, "seed": 0, "synthesis": {"passes": 1},
+                           "character": [
+                               {"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+                                "goal": [{"position": [0.0, 6.0]}]},
+                               {"name": "c1", "start": {"position": [4.0, 3.0], "heading": -90.0, "pose": "stand"},
+                                "goal": [{"position": [0.3, 6.0], "time": [6.0, 7.0]}]}]})
+
+
+@pytest.mark.slow
+def test_a_goal_that_cannot_be_reached_clear_of_everyone_is_given_up_not_walked_into(default_graph):
+    sc = _blocked_goal_scenario()
+    res = plan_scenario(sc, default_graph)
+    c0, c1 = res.characters
+    assert not c0.warnings
+    assert c1.warnings and c1.ladder and c1.ladder[-1].kind == "waiting"
+    rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
+    assert rep.summary()["character_overlap_pairs"] == 0, rep.character_overlaps
+    # c1 stands where it started, the whole time
+    assert np.hypot(*(c1.track.root[:, :2] - [4.0, 3.0]).T).max() < 0.3
+    # and the checker sees the goal was not met: nothing is hidden
+    assert not rep.summary()["passed"]
+
+
+@pytest.mark.slow
+def test_the_world_never_plays_a_colliding_plan(default_graph):
+    """Live: a character sent onto a spot where another stands waits clear of everyone, with a
+    warning saying why; the recorded frames overlap nobody."""
+    from runtime.world import World
+    w = World(default_graph, seed=3, budget_ms=1e6)
+    w.spawn("stays", (0.0, 5.0), heading=0.0)
+    w.spawn("goes", (4.0, 0.0), heading=0.0)
+    warnings = []
+    w.on("warning", warnings.append)
+    w.go_to("goes", (0.2, 5.0))
+    g = default_graph
+    xz, rad = [], []
+    for _ in range(30 * 12):
+        w.tick()
+        s, a, b, t, root = w.playback.gather(0)
+        xz.append(root[:, :2].copy())
+        rad.append(np.maximum(g.frame_radius[a], g.frame_radius[b]))
+    assert overlapping_pairs(np.array(xz), np.array(rad, dtype=np.float64)) == {}
+    assert any(e.character == "goes" for e in warnings), [e.data for e in warnings]
+    msg = next(e.data["message"] for e in warnings if e.character == "goes")
+    assert "clear of everyone" in msg
