@@ -32,6 +32,7 @@ import os
 import numpy as np
 from pxr import Gf, Sdf, UsdGeom, UsdSkel, Vt
 
+from runtime.crowd.scenario import prim_name
 from runtime.crowd.tracks import Track
 from runtime.motion.body import body_mesh
 
@@ -48,8 +49,10 @@ _T = Sdf.ValueTypeNames
 
 
 def character_path(name: str) -> Sdf.Path:
-    """The SkelRoot path of the character called ``name``."""
-    return Sdf.Path(CHARACTERS).AppendChild(valid_prim_name(name, "Character"))
+    """The SkelRoot path of the character called ``name`` (:func:`runtime.crowd.scenario.prim_name`:
+    a name that is not a USD identifier has its other characters replaced by '_'; the SkelRoot
+    then keeps the original in ``crowdweave:name``)."""
+    return Sdf.Path(CHARACTERS).AppendChild(prim_name(name))
 
 
 def _define_body_prototype(stage, skeleton):
@@ -155,6 +158,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
             raise ValueError(f"characters {seen[p]!r} and {name!r} both map to the USD prim {p}")
         seen[p] = name
 
+    renamed = [(p, name) for name, (p, _) in zip(tracks, items) if p.name != name]
     if clips_per is None:
         with Sdf.ChangeBlock():
             author_tracks(layer, items, graph, sv,
@@ -169,6 +173,10 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
             with Sdf.ChangeBlock():
                 for path, tr in items:
                     clips.author_clip_set(layer.GetPrimAtPath(target.MapToSpecPath(path)), path, tr)
+    with Sdf.ChangeBlock():      # the original of a name that is not a USD identifier
+        for p, name in renamed:
+            attribute_spec(layer.GetPrimAtPath(target.MapToSpecPath(p)), "crowdweave:name", _T.String, str(name),
+                           custom=True)
     data = {}
     if metadata:
         data["crowdweave"] = dict(metadata)
@@ -196,7 +204,8 @@ def write_crowd_stage(path, tracks: dict, graph, fps: float, *, metadata: dict |
 
 
 def read_tracks(stage_or_path) -> dict:
-    """Tracks (name -> Track) back from a baked stage, from its crowdweave attributes."""
+    """Tracks (name -> Track) back from a baked stage, from its crowdweave attributes; a character
+    is named by its ``crowdweave:name`` when it has one (a name that is not a USD identifier)."""
     stage = open_stage(stage_or_path)
     out = {}
     chars = stage.GetPrimAtPath(CHARACTERS)
@@ -215,7 +224,8 @@ def read_tracks(stage_or_path) -> dict:
         start = int(prim.GetAttribute("crowdweave:startFrame").Get() or 0)
         if not (len(fa) == len(fb) == len(ft) == len(root)):
             raise ValueError(f"{prim.GetPath()}: crowdweave frame arrays and crowdweave:root disagree in length")
-        out[prim.GetName()] = Track(fa, fb, ft, root, start)
+        original = prim.GetAttribute("crowdweave:name")
+        out[(original.Get() if original else None) or prim.GetName()] = Track(fa, fb, ft, root, start)
     return out
 
 
