@@ -33,7 +33,7 @@ import msgpack
 import numpy as np
 
 __all__ = ["AssetError", "Pack", "save_pack", "load_pack", "pack_fields", "atomic_write_bytes", "atomic_path",
-           "temp_path", "sweep_stale_temps", "read_bounded"]
+           "temp_path", "commit_temp", "sweep_stale_temps", "read_bounded", "pause_point", "PAUSE_ENV"]
 
 FORMAT = "crowdweave"
 # Largest pack accepted: the read stops here whatever the file claims (a pack's arrays are
@@ -98,6 +98,21 @@ def temp_path(path, suffix: str = "", directory: bool = False) -> Path:
     return Path(tmp)
 
 
+PAUSE_ENV = "CROWDWEAVE_PAUSE_AT"
+
+
+def pause_point(name: str) -> None:
+    """A test hook at a named point of a long write: when the environment variable
+    ``CROWDWEAVE_PAUSE_AT`` equals ``name``, say so on stderr and wait (tests kill the process
+    there, e.g. ``tests/test_hardening_kill.py``). Does nothing otherwise."""
+    if os.environ.get(PAUSE_ENV) == name:
+        import sys
+        import time
+        print(f"crowdweave: paused at {name} (pid {os.getpid()})", file=sys.stderr, flush=True)
+        while True:
+            time.sleep(60)
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -152,6 +167,16 @@ def atomic_write_bytes(path, data: bytes) -> None:
         raise
 
 
+def commit_temp(tmp, path) -> Path:
+    """Make a finished temporary file ``path``: fsync it, give it the permissions a plain
+    ``open()`` would (0666 less the umask; mkstemp uses 0600) and rename it onto ``path``."""
+    with open(tmp, "rb+") as f:
+        os.fsync(f.fileno())
+    os.chmod(tmp, _default_mode())
+    os.replace(tmp, path)
+    return Path(path)
+
+
 class atomic_path:
     """Context manager giving a temporary path beside ``path``; renamed onto ``path`` only if
     the block succeeds (for writers such as USD that want a file name, not bytes)::
@@ -172,10 +197,7 @@ class atomic_path:
     def __exit__(self, exc_type, exc, tb):
         try:
             if exc_type is None:
-                with open(self.tmp, "rb+") as f:
-                    os.fsync(f.fileno())
-                os.chmod(self.tmp, _default_mode())
-                os.replace(self.tmp, self.path)
+                commit_temp(self.tmp, self.path)
         finally:
             try:
                 os.unlink(self.tmp)     # still there if the block or the rename failed

@@ -291,7 +291,7 @@ def test_bake_command_writes_value_clips(tmp_path, capsys):
     assert errors(validate_stage(clip)) == []
     capsys.readouterr()
     assert main(["bake", str(d), "--out", str(clip), "--clips-per", "0"]) == 2
-    assert "--clips-per must be at least 1" in capsys.readouterr().err
+    assert "argument --clips-per: must be an integer from 1 to 5000, got '0'" in capsys.readouterr().err
 
 
 def test_bake_errors_name_the_missing_file(tmp_path, capsys):

@@ -3,7 +3,9 @@
 Layout::
 
     /World                          Xform (defaultPrim)
-    /World/Environment              reference to the world stage (when given)
+    /World/Environment              reference to the world stage (when given; a stage in other
+                                    units or Z up: an Xform converting to metres, Y up, whose
+                                    child Stage holds the reference)
     /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
         crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
@@ -30,7 +32,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from pxr import Gf, Sdf, UsdGeom, UsdSkel, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from runtime.crowd.scenario import prim_name
 from runtime.crowd.tracks import Track
@@ -41,7 +43,7 @@ from .stage import check_usd_path, new_stage, open_stage, save_stage, set_defaul
 from .timesamples import SkelValues, attribute_spec, author_tracks, prim_spec, relationship_spec
 
 __all__ = ["build_crowd_stage", "write_crowd_stage", "save_crowd_stage", "read_tracks", "write_props",
-           "character_path", "CHARACTERS"]
+           "character_path", "reference_world", "CHARACTERS"]
 
 CHARACTERS = "/World/Characters"
 BODY_PROTOTYPE = "/Prototypes/Body"
@@ -108,13 +110,49 @@ def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Tr
 
 
 # -- the stage ------------------------------------------------------------------------------------
+def reference_world(stage, world_path, out_path=None):
+    """Reference the world stage as ``/World/Environment`` (by a path relative to ``out_path``
+    when given). The referenced prim is the world's defaultPrim, else its first root prim; a
+    world without prims is not referenced (returns None). A world in other units or Z up (as its
+    metadata says; unauthored means metres and Y up, as the world reader reads it) goes under an
+    Xform that scales by its metersPerUnit and turns Z up into Y up (-90 degrees about X), the
+    reference on its child ``Stage``. Returns the prim holding the reference."""
+    world = Usd.Stage.Open(str(world_path), Usd.Stage.LoadNone)
+    root = world.GetDefaultPrim()
+    if not root:
+        roots = [p for p in world.GetPseudoRoot().GetChildren() if p.IsDefined() and not p.IsAbstract()]
+        if not roots:
+            return None
+        root = roots[0]
+    ref = str(world_path)
+    if out_path is not None:
+        ref = os.path.relpath(os.path.abspath(world_path), os.path.dirname(os.path.abspath(out_path)))
+    ref = ref.replace(os.sep, "/")
+    mpu = float(UsdGeom.GetStageMetersPerUnit(world)) if world.HasAuthoredMetadata("metersPerUnit") else 1.0
+    up = str(UsdGeom.GetStageUpAxis(world)) if world.HasAuthoredMetadata("upAxis") else "Y"
+    if (mpu, up) == (1.0, "Y"):
+        prim = stage.DefinePrim("/World/Environment")
+    else:
+        env = UsdGeom.Xform.Define(stage, "/World/Environment")
+        env.AddScaleOp().Set(Gf.Vec3f(mpu, mpu, mpu))
+        if up == "Z":
+            env.AddRotateXOp().Set(-90.0)
+        prim = stage.DefinePrim("/World/Environment/Stage")
+    if world.GetDefaultPrim():
+        prim.GetReferences().AddReference(ref)
+    else:
+        prim.GetReferences().AddReference(ref, root.GetPath())
+    return prim
+
+
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
                       num_frames: int | None = None, world_path=None, out_path=None, body: bool = True,
                       clips_per: int | None = None, workers: int | None = None):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
     SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
-    one prototype mesh). ``world_path`` (a Y-up, metre world stage) is referenced as
-    ``/World/Environment`` (by a path relative to ``out_path`` when given).
+    one prototype mesh). ``world_path`` (a world stage) is referenced as
+    ``/World/Environment`` (:func:`reference_world`: by a path relative to ``out_path`` when
+    given, converted to metres and Y up when the world is not).
 
     ``clips_per=N`` (requires ``out_path``) writes the time samples (joint translations and
     rotations, ``crowdweave:root``) as value clips, one layer per N characters, in ``workers``
@@ -135,10 +173,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     UsdGeom.Scope.Define(stage, CHARACTERS)
     sk = graph.skeleton
     if world_path is not None:
-        ref = str(world_path)
-        if out_path is not None:
-            ref = os.path.relpath(os.path.abspath(world_path), os.path.dirname(os.path.abspath(out_path)))
-        stage.DefinePrim("/World/Environment").GetReferences().AddReference(ref.replace(os.sep, "/"))
+        reference_world(stage, world_path, out_path)
     if body and tracks:
         _define_body_prototype(stage, sk)
     sv = SkelValues.of(sk)

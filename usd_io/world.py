@@ -156,7 +156,10 @@ class _Reader:
         self.time = Usd.TimeCode.EarliestTime()
         self.xf = UsdGeom.XformCache(self.time)
         mpu, up, warnings = world_units(stage)
-        self.K = units_matrix(mpu, up)
+        try:
+            self.K = units_matrix(mpu, up)
+        except GeometryError as e:
+            raise WorldError(file, f"stage metadata: {e}") from None
         # local forward axis: +Z in a Y-up stage, -Y in a Z-up stage (K's rotation maps it to +Z)
         self.forward = np.array([0.0, 0.0, 1.0]) if up.upper() == "Y" else np.array([0.0, -1.0, 0.0])
         self.side = np.array([1.0, 0.0, 0.0])

@@ -26,6 +26,18 @@ def limits(lo=None, hi=None, unit: str = "", lo_open: bool = False) -> str:
     return f"<= {f(hi)}{u}" if hi is not None else "any finite number"
 
 
+def _in(lo, hi, unit: str = "", lo_open: bool = False) -> str:
+    """`` from 1 to 64``, `` greater than 0 and at most 3600 s`` ...: a range in a message."""
+    u = f" {unit}" if unit else ""
+    if lo_open and lo is not None:
+        return f" greater than {lo:g}" + (f" and at most {hi:g}" if hi is not None else "") + u
+    if lo is not None and hi is not None:
+        return f" from {lo:g} to {hi:g}{u}"
+    if lo is not None:
+        return f" of at least {lo:g}{u}"
+    return f" of at most {hi:g}{u}" if hi is not None else ""
+
+
 def number(lo=None, hi=None, lo_open: bool = False, unit: str = ""):
     """An argparse ``type``: a finite float in [lo, hi] (lo excluded with ``lo_open``)."""
     def parse(text: str) -> float:
@@ -35,7 +47,7 @@ def number(lo=None, hi=None, lo_open: bool = False, unit: str = ""):
             x = None
         if x is None or not math.isfinite(x) or (lo is not None and (x < lo or (lo_open and x == lo))) \
                 or (hi is not None and x > hi):
-            raise argparse.ArgumentTypeError(f"must be a finite number, {limits(lo, hi, unit, lo_open)}; got {text!r}")
+            raise argparse.ArgumentTypeError(f"must be a finite number{_in(lo, hi, unit, lo_open)}, got {text!r}")
         return x
     parse.__name__ = "number"
     return parse
@@ -49,7 +61,7 @@ def integer(lo=None, hi=None):
         except ValueError:
             x = None
         if x is None or (lo is not None and x < lo) or (hi is not None and x > hi):
-            raise argparse.ArgumentTypeError(f"must be an integer, {limits(lo, hi)}; got {text!r}")
+            raise argparse.ArgumentTypeError(f"must be an integer{_in(lo, hi)}, got {text!r}")
         return x
     parse.__name__ = "integer"
     return parse

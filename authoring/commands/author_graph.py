@@ -3,16 +3,20 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
+
+from authoring.commands.args import check_output, number
 
 
 def configure(p):
     p.add_argument("inputs", nargs="+", help="take directories (procedural capture) and/or BVH files")
     p.add_argument("--out", required=True, help="output pack (.cwpack); a USD preview is written beside it")
-    p.add_argument("--scale", type=float, default=None, help="metres per BVH unit (default: by skeleton family)")
+    p.add_argument("--scale", type=number(0, 1000, lo_open=True), default=None,
+                   help="metres per BVH unit (default: by skeleton family; > 0, at most 1000)")
     p.add_argument("--labels", default=None, help="label sidecar JSON, or one label for all BVH frames (default: sidecars, else 'walk')")
-    p.add_argument("--fps", type=float, default=30.0, help="graph frame rate (default 30)")
-    p.add_argument("--threshold", type=float, default=None, help="hub match threshold, RMS cm (default 6)")
+    p.add_argument("--fps", type=number(0, 1000, lo_open=True), default=30.0,
+                   help="graph frame rate (default 30; > 0, at most 1000)")
+    p.add_argument("--threshold", type=number(0, 1000, lo_open=True), default=None,
+                   help="hub match threshold, RMS cm (default 6; > 0, at most 1000)")
     p.add_argument("--no-usd", action="store_true", help="skip the USD preview")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -26,6 +30,9 @@ def run(args) -> int:
     from authoring.motion_graph.sources import LabelError, load_takes
     from runtime.motion import SkeletonMismatchError
 
+    out = check_output(args.out)
+    if not args.no_usd:
+        check_output(out.with_suffix(".usda"), None, "--out (its USD preview)")
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
     try:
@@ -43,7 +50,6 @@ def run(args) -> int:
             g = build_graph(takes, params, progress=bar.update, log=print)
     except (ValueError, SkeletonMismatchError) as e:
         raise CLIError(str(e)) from None
-    out = Path(args.out)
     g.save(out)
     s = g.summary()
     print(f"wrote {out}: {s['nodes']} nodes, {s['edges']} edges, {s['seconds']} s of motion, "

@@ -47,7 +47,7 @@ from ..limits import (MAX_CHARACTER_SECONDS, MAX_CHARACTERS, MAX_DURATION, MAX_F
 from .schema import Table, read_toml, show
 
 __all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "FlockSpec", "load_scenario", "parse_scenario",
-           "read_scenario_toml", "planning_order", "prim_name", "BOX_REACH"]
+           "read_scenario_toml", "scenario_sources", "planning_order", "prim_name", "BOX_REACH"]
 
 # Distance from a box marker to the root of a character standing at it, facing it (m).
 START_CLEARANCE = 0.3    # m from obstacles a start position needs (the default library's standing
@@ -211,6 +211,14 @@ def load_scenario(path, env=None, node_labels=None) -> Scenario:
     if p.is_dir():
         p = p / "scenario.toml"
     return parse_scenario(read_scenario_toml(p), str(p), env=env, node_labels=node_labels)
+
+
+def scenario_sources(data: dict, path: str = "<scenario>") -> tuple:
+    """(world, library) a parsed scenario names, checked (strings; world None for open ground),
+    for loading them before the whole scenario is validated against them."""
+    top = Table(path, "top level", data, _TOP, ScenarioError)
+    world = top.string("world", nonempty=True) if "world" in top else None
+    return world, top.string("library", "default", nonempty=True)
 
 
 def read_scenario_toml(path) -> dict:
