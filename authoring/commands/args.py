@@ -91,10 +91,10 @@ def check_output(path, suffixes=None, option: str = "--out") -> Path:
     its directory writable (or creatable). CLIError naming the option and the path otherwise."""
     p = Path(path)
     what = f"{option} {p}"
-    if suffixes and p.suffix.lower() not in suffixes:
-        raise CLIError(f"{what}: must end in {', '.join(suffixes)}")
     if p.is_dir():
         raise CLIError(f"{what}: is a directory (give a file name)")
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise CLIError(f"{what}: must end in {', '.join(suffixes)}")
     if p.name in ("", ".", ".."):
         raise CLIError(f"{what}: not a file name")
     _writable_dir(p.parent, what)
