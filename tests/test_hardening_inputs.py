@@ -81,7 +81,7 @@ def test_the_unedited_scenario_is_valid():
 def test_characters_times_duration_has_a_limit():
     chars = [{"name": f"c{i}", "start": {"position": [float(i), 0.0]}} for i in range(100)]
     d = _doc(character=chars, duration=MAX_CHARACTER_SECONDS / 100 + 1)
-    with pytest.raises(ScenarioError, match=r"100 characters x 1001 s is more than the limit of 100000"):
+    with pytest.raises(ScenarioError, match=r"100 characters x 601 s is more than the limit of 60000"):
         parse_scenario(d, "s.toml")
     d["duration"] = MAX_CHARACTER_SECONDS / 100
     assert len(parse_scenario(d, "s.toml").characters) == 100

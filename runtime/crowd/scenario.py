@@ -401,7 +401,7 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
         raise ScenarioError(f"{path}: {n} characters (crowd and tiled): more than the limit of {MAX_CHARACTERS}")
     if n * duration > MAX_CHARACTER_SECONDS:
         raise ScenarioError(f"{path}: duration: {n} characters x {duration:g} s is more than the limit of "
-                            f"{MAX_CHARACTER_SECONDS:g} character-seconds (a bake holds about 1.5 KB per "
+                            f"{MAX_CHARACTER_SECONDS:g} character-seconds (a bake holds about 4.5 KB per "
                             "character and frame); shorten the scenario or split the crowd")
     _check_names(path, chars, tilings, flocks)
     sc = Scenario(name, path, world, library, duration, seed, eps, chars, syn, flocks, tilings)
