@@ -258,3 +258,12 @@ def test_recapturing_into_an_old_directory_leaves_no_stale_take(tmp_path, capsys
     assert main(["capture", "--takes", "--kinds", "bow", "--out", str(t), "--no-check", "--quiet"]) == 0
     assert sorted(p.name for p in t.iterdir()) == ["bow_000", "takes.json"]
     capsys.readouterr()
+
+
+def test_a_broken_world_file_is_one_line_naming_line_and_column(tmp_path, capsys):
+    w = tmp_path / "world.usda"
+    w.write_text('#usda 1.0\ndef Xform "World" {\n  double x = \n}\n')
+    assert main(["world", "check", str(w)]) == 2
+    out = capsys.readouterr().out.strip()
+    assert out == (f"crowdweave world: error: {w}: not a readable USD file: line 3, column 3: "
+                   "Expected } at 'double x = ' in </World>")

@@ -116,3 +116,13 @@ def test_world_settings_are_checked(default_graph):
         w.budget = float("nan")
     w.budget = 0.002
     assert w.budget == 0.002
+
+
+def test_add_flocks_checks_its_starts(w):
+    for pos, error in (([[0.0, float("nan"), 0.0]], ValueError), ([[0.0, 0.0]], ValueError), ("here", TypeError),
+                       ([], ValueError)):
+        with pytest.raises(error):
+            w.add_flocks("never-loaded.cwpack", pos)
+    with pytest.raises(ValueError, match="headings"):
+        w.add_flocks("never-loaded.cwpack", [[0.0, 0.0, 0.0]], headings=[0.0, 1.0])
+    assert w.flocks == []          # nothing was started (the pack was never even opened)

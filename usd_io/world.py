@@ -102,6 +102,15 @@ _ROUND_GPRIMS = ((UsdGeom.Cylinder, footprint_cylinder, "radius", "radius"),
                  (UsdGeom.Capsule_1, footprint_capsule, "radiusBottom", "radiusTop"))
 
 
+def _usd_error(e) -> str:
+    """The first message of a USD error, without the C++ context around it, on one line
+    (``line 3, column 3: Expected } ...`` for a syntax error)."""
+    msgs = [m.split(" : '", 1)[1].strip().rstrip("'").strip() for m in str(e).split("Error in ")[1:] if " : '" in m]
+    first = msgs[0] if msgs else str(e)
+    first = re.sub(r"^\S*?:(\d+):(\d+): ", r"line \1, column \2: ", first)
+    return " ".join(first.split())[:300]
+
+
 def _open(path) -> Usd.Stage:
     p = Path(path)
     if not p.exists():
@@ -113,8 +122,7 @@ def _open(path) -> Usd.Stage:
     try:
         stage = Usd.Stage.Open(str(p))
     except Tf.ErrorException as e:
-        msg = " ".join(str(e).split())
-        raise WorldError(p, f"not a readable USD file: {msg[:300]}") from None
+        raise WorldError(p, f"not a readable USD file: {_usd_error(e)}") from None
     if stage is None:
         raise WorldError(p, "not a readable USD file")
     return stage

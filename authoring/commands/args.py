@@ -13,29 +13,24 @@ from authoring.commands import CLIError
 __all__ = ["number", "integer", "limits", "check_output", "check_output_dir"]
 
 
-def limits(lo=None, hi=None, unit: str = "", lo_open: bool = False) -> str:
-    """``"1-64"``, ``"> 0, at most 3600 s"`` ...: the range of a value for its ``--help``."""
-    u = f" {unit}" if unit else ""
-    f = (lambda x: f"{x:g}")
+def limits(lo=None, hi=None, unit: str = "", lo_open: bool = False, prose: bool = False) -> str:
+    """The range of a value: ``"1-64"``, ``"> 0, at most 3600 s"`` for its ``--help``, or with
+    ``prose`` ``"from 1 to 64"``, ``"greater than 0 and at most 3600 s"`` for a message."""
     if lo_open and lo is not None:
-        return f"> {f(lo)}" + (f", at most {f(hi)}" if hi is not None else "") + u
-    if lo is not None and hi is not None:
-        return f"{f(lo)}-{f(hi)}{u}"
-    if lo is not None:
-        return f">= {f(lo)}{u}"
-    return f"<= {f(hi)}{u}" if hi is not None else "any finite number"
+        text = (f"greater than {lo:g}" if prose else f"> {lo:g}") + (
+            "" if hi is None else (" and at most " if prose else ", at most ") + f"{hi:g}")
+    elif lo is not None and hi is not None:
+        text = f"from {lo:g} to {hi:g}" if prose else f"{lo:g}-{hi:g}"
+    elif lo is not None or hi is not None:
+        text = (("of at least " if prose else ">= ") + f"{lo:g}") if hi is None \
+            else (("of at most " if prose else "<= ") + f"{hi:g}")
+    else:
+        return "" if prose else "any finite number"
+    return text + (f" {unit}" if unit else "")
 
 
-def _in(lo, hi, unit: str = "", lo_open: bool = False) -> str:
-    """`` from 1 to 64``, `` greater than 0 and at most 3600 s`` ...: a range in a message."""
-    u = f" {unit}" if unit else ""
-    if lo_open and lo is not None:
-        return f" greater than {lo:g}" + (f" and at most {hi:g}" if hi is not None else "") + u
-    if lo is not None and hi is not None:
-        return f" from {lo:g} to {hi:g}{u}"
-    if lo is not None:
-        return f" of at least {lo:g}{u}"
-    return f" of at most {hi:g}{u}" if hi is not None else ""
+def _must(what: str, in_range: str, text: str) -> str:
+    return f"must be {what}{' ' + in_range if in_range else ''}, got {text!r}"
 
 
 def number(lo=None, hi=None, lo_open: bool = False, unit: str = ""):
@@ -47,7 +42,7 @@ def number(lo=None, hi=None, lo_open: bool = False, unit: str = ""):
             x = None
         if x is None or not math.isfinite(x) or (lo is not None and (x < lo or (lo_open and x == lo))) \
                 or (hi is not None and x > hi):
-            raise argparse.ArgumentTypeError(f"must be a finite number{_in(lo, hi, unit, lo_open)}, got {text!r}")
+            raise argparse.ArgumentTypeError(_must("a finite number", limits(lo, hi, unit, lo_open, True), text))
         return x
     parse.__name__ = "number"
     return parse
@@ -61,7 +56,7 @@ def integer(lo=None, hi=None):
         except ValueError:
             x = None
         if x is None or (lo is not None and x < lo) or (hi is not None and x > hi):
-            raise argparse.ArgumentTypeError(f"must be an integer{_in(lo, hi)}, got {text!r}")
+            raise argparse.ArgumentTypeError(_must("an integer", limits(lo, hi, prose=True), text))
         return x
     parse.__name__ = "integer"
     return parse

@@ -12,7 +12,7 @@ import numbers
 import numpy as np
 
 __all__ = ["character_name", "point", "heading", "window", "alpha", "seconds", "marker_path", "names",
-           "MAX_COORDINATE", "MAX_TIME"]
+           "flock_starts", "MAX_COORDINATE", "MAX_TIME"]
 
 MAX_COORDINATE = 1e6     # m from the origin: far beyond any world, and safe from overflow in squared distances
 MAX_TIME = 1e7           # s of world time (about 115 days)
@@ -113,3 +113,28 @@ def marker_path(path, what: str) -> str:
     if not path:
         raise ValueError(f"{what} must not be empty")
     return path
+
+
+def flock_starts(positions, headings, regions, seed):
+    """Flock centroids (k, 3), headings (k,) or None, regions (a list of k, or one region for
+    all, or None), seed None or a non-negative integer: checked, as float64 arrays."""
+    try:
+        pos = np.asarray(positions, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError("positions must be (k, 3) numbers") from None
+    if pos.ndim != 2 or pos.shape[1] != 3 or len(pos) == 0:
+        raise ValueError(f"positions must be (k, 3) flock centroids, got shape {pos.shape}")
+    if not np.all(np.isfinite(pos)) or np.any(np.abs(pos) > MAX_COORDINATE):
+        raise ValueError(f"positions must be finite and within {MAX_COORDINATE:g} m of the origin")
+    if headings is not None:
+        try:
+            headings = np.asarray(headings, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise TypeError("headings must be numbers") from None
+        if len(headings) != len(pos) or not np.all(np.isfinite(headings)):
+            raise ValueError(f"headings must be {len(pos)} finite numbers")
+    if isinstance(regions, (list, tuple)) and len(regions) != len(pos):     # else one region for all
+        raise ValueError(f"regions must have one entry per flock ({len(pos)}), got {len(regions)}")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ValueError(f"seed must be None or a non-negative integer, got {seed!r}")
+    return pos, headings

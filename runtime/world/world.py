@@ -348,6 +348,7 @@ class World:
         """Start flocks walking ``ddg`` (a :class:`runtime.flock.DDG` or a pack path): their
         centroids at ``positions`` (k, 3), optionally each constrained to a region. All flocks
         of one DDG advance together in one vectorized system. Returns (system index, flock rows)."""
+        positions, headings = args.flock_starts(positions, headings, regions, seed)
         return self.flock_host.add(ddg, positions, headings, regions, seed)
 
     def add_tiling(self, zone):
