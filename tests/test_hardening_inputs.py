@@ -103,8 +103,10 @@ def test_toml_syntax_errors_and_size_name_the_file(tmp_path):
     with pytest.raises(ScenarioError, match=re.escape(f"{d / 'scenario.toml'}: file not found")):
         load_scenario(d)
     (d / "scenario.toml").mkdir()
-    with pytest.raises(ScenarioError, match=re.escape(f"{d / 'scenario.toml'}: is a directory")):
+    with pytest.raises(ScenarioError, match=re.escape(f"{d / 'scenario.toml'}: not a regular file (a directory)")):
         read_scenario_toml(d / "scenario.toml")
+    with pytest.raises(ScenarioError, match="/dev/zero: not a regular file"):
+        read_scenario_toml("/dev/zero")
 
 
 # -- names ---------------------------------------------------------------------------------------

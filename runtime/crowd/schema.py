@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..assets import read_bounded
+
 __all__ = ["Table", "show", "read_toml", "MISSING"]
 
 MISSING = object()
@@ -54,19 +56,10 @@ def _range(lo, hi, integer: bool) -> str:
 
 def read_toml(path, limit: int, error=ValueError) -> dict:
     """Parse a TOML file read with a hard size limit (whatever the file system reports about
-    its size); errors name the file (a syntax error also its line and column)."""
+    its size; only a regular file); errors name the file (a syntax error also its line and
+    column)."""
     p = Path(path)
-    try:
-        with open(p, "rb") as f:
-            raw = f.read(limit + 1)
-    except FileNotFoundError:
-        raise error(f"{p}: file not found") from None
-    except IsADirectoryError:
-        raise error(f"{p}: is a directory, not a TOML file") from None
-    except OSError as e:
-        raise error(f"{p}: cannot read: {e.strerror or e}") from None
-    if len(raw) > limit:
-        raise error(f"{p}: larger than the {limit >> 20} MB limit for TOML files")
+    raw = read_bounded(p, limit, lambda where, reason: error(f"{where}: {reason}"))
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as e:
