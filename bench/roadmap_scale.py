@@ -3,9 +3,10 @@
 Generates world stages of N obstacles (rotated boxes and upright cylinders on a jittered grid,
 one per 3.5 m x 3.5 m cell, so the free area and the roadmap grow with N as well), then times
 the real command (``python -m authoring.cli author roadmap WORLD --out X.cwpack --quiet``) in a
-subprocess for each source tree given, and prints seconds per tree, the growth from the
-smallest to the largest world, and the exponent k of time ~ N^k fitted over all sizes
-(n log n shows as k a little above 1; quadratic as 2).
+subprocess for each source tree given, and prints wall and CPU seconds per tree, the growth of
+the CPU time from the smallest to the largest world, and the exponent k of CPU ~ N^k fitted over
+all sizes (n log n shows as k a little above 1; quadratic as 2). CPU time is the figure to
+compare on a shared machine: the wall time also counts waiting for other processes.
 
     python bench/roadmap_scale.py                         # this checkout
     python bench/roadmap_scale.py --trees /work/main .    # baseline tree first, then this one
@@ -18,6 +19,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -59,19 +61,25 @@ def write_world(path: Path, n: int, seed: int = 0) -> None:
     path.write_text("\n".join(lines))
 
 
-def run_tree(tree: Path, world: Path, out: Path, timeout: float) -> tuple[float, str]:
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run_tree(tree: Path, world: Path, out: Path, timeout: float) -> tuple[float, float, str]:
+    """(wall seconds, CPU seconds, what was built) of one run of the command."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     cmd = [sys.executable, "-m", "authoring.cli", "author", "roadmap", str(world), "--out", str(out), "--quiet"]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _children_cpu()
     try:
         r = subprocess.run(cmd, env=env, cwd=str(tree), capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
-        return float("nan"), f"timed out after {timeout:g} s"
-    dt = time.perf_counter() - t0
+        return float("nan"), float("nan"), f"timed out after {timeout:g} s"
+    dt, cpu = time.perf_counter() - t0, _children_cpu() - c0
     if r.returncode != 0:
-        return float("nan"), (r.stderr.strip().splitlines() or ["failed"])[-1]
+        return float("nan"), float("nan"), (r.stderr.strip().splitlines() or ["failed"])[-1]
     last = r.stdout.strip().splitlines()[-1]
-    return dt, last.split(": ", 1)[-1].split(" (")[0]
+    return dt, cpu, last.split(": ", 1)[-1].split(" (")[0]
 
 
 def main(argv=None) -> int:
@@ -83,29 +91,31 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
     trees = [Path(t).resolve() for t in args.trees]
-    rows = {}
+    wall, cpu = {}, {}
     with tempfile.TemporaryDirectory(prefix="roadmap_scale.") as d:
         for n in sizes:
             world = Path(d) / f"world_{n}.usda"
             write_world(world, n)
             for t in trees:
-                sec, what = run_tree(t, world, Path(d) / f"rm_{n}.cwpack", args.timeout)
-                rows[n, t] = sec
-                print(f"  {n:6d} obstacles  {t}: {sec:8.2f} s  ({what})", file=sys.stderr, flush=True)
-    print(f"\n`crowdweave author roadmap` over a generated world (one obstacle per {CELL:g} m x {CELL:g} m), seconds")
+                wall[n, t], cpu[n, t], what = run_tree(t, world, Path(d) / f"rm_{n}.cwpack", args.timeout)
+                print(f"  {n:6d} obstacles  {t}: {wall[n, t]:8.2f} s wall, {cpu[n, t]:8.2f} s CPU  ({what})",
+                      file=sys.stderr, flush=True)
+    print(f"\n`crowdweave author roadmap` over a generated world (one obstacle per {CELL:g} m x {CELL:g} m): "
+          "seconds wall / CPU (CPU time does not depend on what else the machine runs)")
     print(f"{'obstacles':>10} " + " ".join(f"{str(t)[-28:]:>28}" for t in trees))
     for n in sizes:
-        print(f"{n:>10} " + " ".join(f"{rows[n, t]:>28.2f}" for t in trees))
+        print(f"{n:>10} " + " ".join(f"{f'{wall[n, t]:.2f} / {cpu[n, t]:.2f}':>28}" for t in trees))
     if len(sizes) > 1:
         a, b = sizes[0], sizes[-1]
-        print(f"{'growth':>10} " + " ".join(f"{f'x{rows[b, t] / rows[a, t]:.1f} for x{b / a:g} obstacles':>28}"
-                                            for t in trees))
+        print(f"{'growth':>10} " + " ".join(f"{f'CPU x{cpu[b, t] / cpu[a, t]:.1f} for x{b / a:g}':>28}" for t in trees))
         ln = np.log(sizes)
         ks = []
         for t in trees:
-            y = np.log([rows[n, t] for n in sizes])
+            y = np.log([cpu[n, t] for n in sizes])
             ks.append(np.polyfit(ln, y, 1)[0] if np.all(np.isfinite(y)) else float("nan"))
-        print(f"{'exponent':>10} " + " ".join(f"{f'time ~ N^{k:.2f}':>28}" for k in ks))
+        print(f"{'exponent':>10} " + " ".join(f"{f'CPU ~ N^{k:.2f}':>28}" for k in ks))
+        nlogn = b * math.log(b) / (a * math.log(a))
+        print(f"(n log n would be x{nlogn:.1f} from {a} to {b}; n^2 x{(b / a) ** 2:g})")
     return 0
 
 
