@@ -2,8 +2,9 @@
 
 Each limit keeps one run within the memory of a workstation (a bake holds about 4.5 KB per
 character and frame while it writes: grid300, 540,000 character-frames, peaks at 2.8 GB) or
-keeps a read from trusting a file's reported size. Inputs over a limit are rejected before any work with a message naming
-the limit; the README's "Limits" section lists them for users.
+keeps a read from trusting a file's reported size. Inputs over a limit are rejected before any
+work with a message naming the limit; the README's "Limits and errors" section lists them for
+users.
 """
 from __future__ import annotations
 

@@ -88,7 +88,8 @@ def test_odd_character_names_bake_and_check(tmp_path, capsys, default_graph):
     out = tmp_path / "o.usda"
     assert main(["bake", str(s), "--out", str(out), "--quiet"]) == 0, capsys.readouterr()
     st = Usd.Stage.Open(str(out))
-    kids = {p.GetName(): p.GetAttribute("crowdweave:name").Get() for p in st.GetPrimAtPath("/World/Characters").GetChildren()}
+    kids = {p.GetName(): p.GetAttribute("crowdweave:name").Get()
+            for p in st.GetPrimAtPath("/World/Characters").GetChildren()}
     assert kids == {"bob_smith": "bob smith", "Zo__1st": "Zoë/1st"}
     assert "checker: PASSED" in capsys.readouterr().out
 
@@ -131,7 +132,8 @@ def test_a_missing_parent_is_created(tmp_path, default_graph):
     (["capture", "--minutes", "1e6", "--out", "c"], "argument --minutes: must be a finite number greater than 0"),
     (["capture", "--minutes", "nan", "--out", "c"], "argument --minutes"),
     (["capture", "--fps", "inf", "--out", "c"], "argument --fps"),
-    (["author", "flock", "--agents", "100000", "--out", "f.cwpack"], "argument --agents: must be an integer from 2 to 500"),
+    (["author", "flock", "--agents", "100000", "--out", "f.cwpack"],
+     "argument --agents: must be an integer from 2 to 500"),
     (["author", "flock", "--seconds", "-5", "--out", "f.cwpack"], "argument --seconds"),
     (["author", "roadmap", "w.usda", "--out", "r.cwpack", "--connect", "nan"], "argument --connect"),
     (["author", "roadmap", "w.usda", "--out", "r.cwpack", "--samples", "1e9"], "argument --samples"),
@@ -235,7 +237,8 @@ def test_worlds_without_a_default_prim_or_without_prims(tmp_path, default_graph)
 
 def test_meters_per_unit_zero_is_an_error_naming_the_file(tmp_path, capsys):
     w = tmp_path / "world.usda"
-    w.write_text(WORLD.format(meta='defaultPrim = "World"\n    metersPerUnit = 0', root="World", size=1, at="(0, 0, 0)"))
+    w.write_text(WORLD.format(meta='defaultPrim = "World"\n    metersPerUnit = 0', root="World", size=1,
+                              at="(0, 0, 0)"))
     assert main(["world", "check", str(w)]) == 2
     assert f"{w}: stage metadata: metersPerUnit must be positive" in capsys.readouterr().out
     assert main(["author", "roadmap", str(w), "--out", str(tmp_path / "r.cwpack")]) == 2

@@ -14,7 +14,8 @@ def w(default_graph):
 
 
 @pytest.mark.parametrize("position,heading,error", [
-    ((float("nan"), 0.0), 0.0, ValueError), ((0.0, float("inf")), 0.0, ValueError), ((0.0, 0.0), float("nan"), ValueError),
+    ((float("nan"), 0.0), 0.0, ValueError), ((0.0, float("inf")), 0.0, ValueError),
+    ((0.0, 0.0), float("nan"), ValueError),
     ((0.0, 0.0), float("-inf"), ValueError), (5.0, 0.0, TypeError), ((1.0, 2.0, 3.0), 0.0, ValueError),
     ("here", 0.0, TypeError), ((0.0, 0.0), "north", TypeError), ((2e6, 0.0), 0.0, ValueError), (None, 0.0, TypeError),
 ])

@@ -165,7 +165,8 @@ class ClipLayers:
             with open(graph_file, "wb") as f:
                 pickle.dump(graph, f, protocol=pickle.HIGHEST_PROTOCOL)
             self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                             initializer=_init_worker, initargs=(str(graph_file), self.fps, os.getpid()))
+                                             initializer=_init_worker,
+                                             initargs=(str(graph_file), self.fps, os.getpid()))
             self._pending = [self._pool.submit(_write_chunk, (str(self.tmp), n, c)) for n, c in self.tasks]
 
     def wait(self) -> str:

@@ -24,7 +24,8 @@ def configure(p):
     p.add_argument("--transitions-per-minute", type=number(0, 10000, lo_open=True), default=None,
                    help="local minima taken per minute of recording (default 30; > 0, at most 10000)")
     p.add_argument("--max-rms", type=number(0, 100, lo_open=True), default=None,
-                   help="largest configuration distance joined, metres (default 0.6 in 2D, 0.9 in 3D; > 0, at most 100)")
+                   help="largest configuration distance joined, metres (default 0.6 in 2D, 0.9 in 3D; "
+                        "> 0, at most 100)")
     p.add_argument("--brute-force", action="store_true",
                    help="evaluate the exact metric for every pair (no lower-bound pruning; same result, slower)")
     p.add_argument("--workers", type=integer(1, 64), default=1, help="processes for the exact metric (default 1; 1-64)")

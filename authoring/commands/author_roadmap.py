@@ -20,7 +20,8 @@ def configure(p):
                    help="largest edge length, m (default 3; > 0, at most 100)")
     p.add_argument("--samples", type=integer(2, MAX_ROADMAP_NODES), default=None,
                    help=f"number of nodes (default: about two per m^2 of free ground; {limits(2, MAX_ROADMAP_NODES)})")
-    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0, help=f"random seed (default 0; {limits(0, MAX_SEED)})")
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                   help=f"random seed (default 0; {limits(0, MAX_SEED)})")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 

@@ -20,7 +20,8 @@ from runtime.limits import MAX_CAPTURE_MINUTES, MAX_REPEAT, MAX_SEED, MAX_TAKE_M
 def configure(parser):
     parser.add_argument("--minutes", type=number(0, MAX_CAPTURE_MINUTES, lo_open=True), default=3.0,
                         help=f"total minutes of motion (default 3; {limits(0, MAX_CAPTURE_MINUTES, lo_open=True)})")
-    parser.add_argument("--seed", type=integer(0, MAX_SEED), default=0, help=f"random seed (default 0; {limits(0, MAX_SEED)})")
+    parser.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                        help=f"random seed (default 0; {limits(0, MAX_SEED)})")
     parser.add_argument("--out", required=True,
                         help="output directory (an earlier capture there is replaced: its takes are removed)")
     parser.add_argument("--fps", type=number(0, 1000, lo_open=True), default=30.0,

@@ -228,7 +228,8 @@ class World:
 
     def pick_up(self, name, box):
         """Walk to the box marker ``box`` and pick it up."""
-        self.crowd.commands.append(("pick_up", args.character_name(name), None, None, None, args.marker_path(box, "box")))
+        self.crowd.commands.append(("pick_up", args.character_name(name), None, None, None,
+                                    args.marker_path(box, "box")))
 
     def put_down(self, name, position, heading=None):
         self.crowd.commands.append(("put_down", args.character_name(name), args.point(position),
