@@ -23,7 +23,8 @@ from 0 to 1e7 s), of the wrong shape, a reversed window, a name in use or an unk
 ``ValueError``; a method that needs a character now (``remove``, ``state``, ``position``,
 ``slot``) raises ``KeyError`` for an unknown name. Commands are queued: what can only be known
 at the next tick (the character was removed, the world has no such seat or box, no plan was
-found) becomes a ``warning`` event instead. ``step`` never raises.
+found) becomes a ``warning`` event instead. ``step`` never raises (its built-in systems never do;
+an error of a system added with :meth:`add_system` is the caller's and propagates).
 """
 from __future__ import annotations
 
