@@ -23,6 +23,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from runtime.limits import MAX_FLOCK_AGENT_SECONDS, MAX_FLOCK_AGENTS, MAX_FLOCK_SECONDS
+
 __all__ = ["BoidsParams", "BoidsSim", "Recording", "record_flock"]
 
 
@@ -57,6 +59,9 @@ class BoidsParams:
             raise ValueError(f"dim must be 2 or 3, got {self.dim}")
         if self.n_agents < 2:
             raise ValueError(f"a flock needs at least 2 agents, got {self.n_agents}")
+        if self.n_agents > MAX_FLOCK_AGENTS:
+            raise ValueError(f"a flock of {self.n_agents} agents is more than the limit of {MAX_FLOCK_AGENTS} "
+                             "(each step compares every pair of agents)")
         if not (0 < self.min_speed <= self.max_speed):
             raise ValueError("speeds must satisfy 0 < min_speed <= max_speed")
         if self.fps <= 0:
@@ -183,8 +188,11 @@ def record_flock(params: BoidsParams, seconds: float, seed: int = 0, progress=No
     ``progress``: optional callable ``progress(n_steps)`` called as steps complete (e.g. a tqdm
     ``update``). Same parameters and seed give bit-identical arrays.
     """
-    if seconds <= 0:
-        raise ValueError(f"seconds must be positive, got {seconds}")
+    if not 0 < seconds <= MAX_FLOCK_SECONDS:
+        raise ValueError(f"seconds must be positive and at most {MAX_FLOCK_SECONDS:g}, got {seconds}")
+    if params.n_agents * seconds > MAX_FLOCK_AGENT_SECONDS:
+        raise ValueError(f"{params.n_agents} agents x {seconds:g} s is more than the limit of "
+                         f"{MAX_FLOCK_AGENT_SECONDS:g} agent-seconds of recording")
     sim = BoidsSim(params, 1, seed)
     n_warm = int(round(params.warmup * params.fps))
     n_rec = int(round(seconds * params.fps)) + 1

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 
 from authoring.commands import CLIError
 
@@ -41,22 +43,51 @@ def _build_parser(argv) -> tuple[argparse.ArgumentParser, dict]:
     return p, modules
 
 
+def _exit_on_signal(signum, frame):
+    """SIGTERM / SIGHUP end the command like Ctrl-C does: as an exception, so every ``finally``
+    (temporary files, worker processes) runs on the way out."""
+    raise SystemExit(128 + signum)
+
+
+class _signals_exit:
+    """Within the block, SIGTERM and SIGHUP raise SystemExit (main thread only); restored after."""
+
+    def __enter__(self):
+        self.old = {}
+        if threading.current_thread() is threading.main_thread():
+            for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)):
+                if s is not None:
+                    self.old[s] = signal.signal(s, _exit_on_signal)
+        return self
+
+    def __exit__(self, *exc):
+        for s, h in self.old.items():
+            signal.signal(s, h)
+        return False
+
+
 def main(argv=None) -> int:
+    """Run one command; returns its exit code (0 ok, 1 a check failed, 2 a usage or input error,
+    130 interrupted; a command ended by SIGTERM/SIGHUP exits with 128 + the signal)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     parser, modules = _build_parser(argv)
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:        # --help, or a bad argument (argparse printed the one-line error)
+        return e.code if isinstance(e.code, int) else 2
     if not args.command:
         parser.print_help()
         return 0
     mod = modules.get(args.command) or importlib.import_module(COMMANDS[args.command][0])
-    try:
-        return int(mod.run(args) or 0)
-    except CLIError as e:
-        print(f"crowdweave {args.command}: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    with _signals_exit():
+        try:
+            return int(mod.run(args) or 0)
+        except CLIError as e:
+            print(f"crowdweave {args.command}: error: {e}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return 130
 
 
 if __name__ == "__main__":

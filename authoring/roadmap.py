@@ -99,7 +99,7 @@ def _connect(env, nodes, clearance, pairs, radius, progress, stage):
 def _csr(M, pairs, nodes):
     rows = np.concatenate([pairs[:, 0], pairs[:, 1]])
     cols = np.concatenate([pairs[:, 1], pairs[:, 0]])
-    order = np.lexsort((cols, rows))
+    order = np.argsort(rows * M + cols, kind="stable")     # by row, then column (pairs are unique)
     rows, cols = rows[order], cols[order]
     indptr = np.zeros(M + 1, dtype=np.int64)
     np.cumsum(np.bincount(rows, minlength=M), out=indptr[1:])
@@ -140,7 +140,7 @@ def build_roadmap(env: Environment, radius: float = WALK_RADIUS, n_samples: int 
     tree = cKDTree(nodes)
     pairs = tree.query_pairs(connect_distance, output_type="ndarray").astype(np.int64)
     pairs = np.sort(pairs, axis=1)
-    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    pairs = pairs[np.argsort(pairs[:, 0] * M + pairs[:, 1], kind="stable")]
     edges = _connect(env, nodes, clearance, pairs, radius, progress, "connecting")
 
     # join components that sparse sampling left apart

@@ -9,11 +9,21 @@ On disk a pack is one msgpack map::
 (temporary file in the same folder, fsync, rename), so a write killed midway leaves the
 previous pack intact. Loading checks format, kind, version and checksum and raises
 :class:`AssetError` naming the file and the reason; it never returns a half-loaded pack.
+
+Reads are bounded whatever the file system reports: only regular files are read (not a
+device such as ``/dev/zero``, even through a symbolic link), in blocks, up to
+:data:`MAX_PACK_BYTES`, and a file that does not start like a pack is rejected at its first
+byte. Temporary files are named ``.<name>.tmp-<pid>-<random>`` beside their target, so a
+temporary left by a process that was killed (``kill -9`` cannot be caught) is recognised and
+removed by the next write to the same path (:func:`sweep_stale_temps`).
 """
 from __future__ import annotations
 
 import hashlib
 import os
+import re
+import shutil
+import stat
 import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -22,11 +32,14 @@ from pathlib import Path
 import msgpack
 import numpy as np
 
-__all__ = ["AssetError", "Pack", "save_pack", "load_pack", "pack_fields", "atomic_write_bytes", "atomic_path"]
+__all__ = ["AssetError", "Pack", "save_pack", "load_pack", "pack_fields", "atomic_write_bytes", "atomic_path",
+           "temp_path", "commit_temp", "sweep_stale_temps", "read_bounded", "pause_point", "PAUSE_ENV"]
 
 FORMAT = "crowdweave"
-# Largest pack accepted (guards against decoding garbage as a huge allocation).
-MAX_PACK_BYTES = 8 << 30
+# Largest pack accepted: the read stops here whatever the file claims (a pack's arrays are
+# copied once more when decoded, so this is about a third of a workstation's memory).
+MAX_PACK_BYTES = 4 << 30
+_READ_BLOCK = 1 << 24
 
 
 class AssetError(Exception):
@@ -68,11 +81,77 @@ def _default_mode() -> int:
     return 0o666 & ~um
 
 
-def atomic_write_bytes(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: temp file beside it, fsync, rename."""
+def _temp_prefix(path: Path, pid: int | None = None) -> str:
+    return f".{path.name}.tmp-{os.getpid() if pid is None else pid}-"
+
+
+def temp_path(path, suffix: str = "", directory: bool = False) -> Path:
+    """A new, empty temporary file (or directory) beside ``path``, named
+    ``.<name>.tmp-<pid>-<random><suffix>`` (the parent is created if needed). The caller
+    renames or removes it; one left by a killed process is removed by :func:`sweep_stale_temps`."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    if directory:
+        return Path(tempfile.mkdtemp(prefix=_temp_prefix(path), suffix=suffix, dir=path.parent))
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(path), suffix=suffix, dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+PAUSE_ENV = "CROWDWEAVE_PAUSE_AT"
+
+
+def pause_point(name: str) -> None:
+    """A test hook at a named point of a long write: when the environment variable
+    ``CROWDWEAVE_PAUSE_AT`` equals ``name``, say so on stderr and wait (tests kill the process
+    there, e.g. ``tests/test_hardening_kill.py``). Does nothing otherwise."""
+    if os.environ.get(PAUSE_ENV) == name:
+        import sys
+        import time
+        print(f"crowdweave: paused at {name} (pid {os.getpid()})", file=sys.stderr, flush=True)
+        while True:
+            time.sleep(60)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def sweep_stale_temps(path) -> list[Path]:
+    """Remove the temporary files and directories of writes to ``path`` (see :func:`temp_path`)
+    whose process no longer runs; returns them. Temporaries of running processes are left."""
+    path = Path(path)
+    pat = re.compile(re.escape(f".{path.name}.tmp-") + r"(\d+)-")
+    removed = []
+    try:
+        entries = list(path.parent.iterdir())
+    except OSError:
+        return removed
+    for e in entries:
+        m = pat.match(e.name)
+        if m is None or int(m.group(1)) == os.getpid() or _alive(int(m.group(1))):
+            continue
+        try:
+            shutil.rmtree(e) if e.is_dir() and not e.is_symlink() else e.unlink()
+            removed.append(e)
+        except FileNotFoundError:
+            pass
+    return removed
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: temp file beside it, fsync, rename (temporaries
+    that killed writers left beside ``path`` are removed first)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    sweep_stale_temps(path)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(path), suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -88,6 +167,16 @@ def atomic_write_bytes(path, data: bytes) -> None:
         raise
 
 
+def commit_temp(tmp, path) -> Path:
+    """Make a finished temporary file ``path``: fsync it, give it the permissions a plain
+    ``open()`` would (0666 less the umask; mkstemp uses 0600) and rename it onto ``path``."""
+    with open(tmp, "rb+") as f:
+        os.fsync(f.fileno())
+    os.chmod(tmp, _default_mode())
+    os.replace(tmp, path)
+    return Path(path)
+
+
 class atomic_path:
     """Context manager giving a temporary path beside ``path``; renamed onto ``path`` only if
     the block succeeds (for writers such as USD that want a file name, not bytes)::
@@ -101,21 +190,17 @@ class atomic_path:
         self.suffix = suffix if suffix is not None else self.path.suffix
 
     def __enter__(self) -> str:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, self.tmp = tempfile.mkstemp(prefix=f".{self.path.stem}.", suffix=".tmp" + self.suffix,
-                                        dir=self.path.parent)
-        os.close(fd)
+        sweep_stale_temps(self.path)
+        self.tmp = str(temp_path(self.path, suffix=".tmp" + self.suffix))
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb):
-        if exc_type is None:
-            with open(self.tmp, "rb+") as f:
-                os.fsync(f.fileno())
-            os.chmod(self.tmp, _default_mode())
-            os.replace(self.tmp, self.path)
-        else:
+        try:
+            if exc_type is None:
+                commit_temp(self.tmp, self.path)
+        finally:
             try:
-                os.unlink(self.tmp)
+                os.unlink(self.tmp)     # still there if the block or the rename failed
             except OSError:
                 pass
         return False
@@ -140,15 +225,7 @@ def load_pack(path, kind: str | None = None, version: int | None = None,
     """Load and verify a pack. ``kind``/``version`` (exact) or ``min_version`` check what the
     caller can read."""
     path = Path(path)
-    try:
-        size = path.stat().st_size
-    except FileNotFoundError:
-        raise AssetError(path, "file not found") from None
-    except OSError as e:
-        raise AssetError(path, f"cannot read: {e}") from None
-    if size > MAX_PACK_BYTES:
-        raise AssetError(path, f"file is {size} bytes, larger than the {MAX_PACK_BYTES} byte limit")
-    raw = path.read_bytes()
+    raw = read_bounded(path, MAX_PACK_BYTES, AssetError, first=_looks_like_a_pack)
     if not raw:
         raise AssetError(path, "file is empty")
     try:
@@ -181,6 +258,48 @@ def load_pack(path, kind: str | None = None, version: int | None = None,
         except Exception as e:
             raise AssetError(path, f"array {name!r} is malformed: {e}") from None
     return Pack(body["kind"], body["version"], body["meta"], arrays, str(path))
+
+
+def _looks_like_a_pack(head: bytes) -> str | None:
+    """Why ``head`` (a file's first bytes) cannot start a pack (a msgpack map), or None."""
+    if head and not (0x80 <= head[0] <= 0x8F or head[0] in (0xDE, 0xDF)):
+        return f"not a crowdweave pack (starts with byte 0x{head[0]:02x}, not a msgpack map)"
+    return None
+
+
+def read_bounded(path, limit: int, error=AssetError, first=None) -> bytes:
+    """The bytes of the regular file ``path``, read in blocks and never more than ``limit``
+    (whatever ``stat`` reports). ``error(path, reason)`` is raised for a missing file, a
+    directory, a device or pipe, an unreadable file, or one over the limit; ``first(head)`` may
+    return a reason to reject the file from its first block."""
+    path = Path(path)
+    try:
+        # O_NONBLOCK: opening a named pipe must not wait for a writer (no effect on files)
+        with os.fdopen(os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0)), "rb") as f:
+            mode = os.fstat(f.fileno()).st_mode
+            if not stat.S_ISREG(mode):
+                kind = "a directory" if stat.S_ISDIR(mode) else "a device or pipe"
+                raise error(path, f"not a regular file ({kind})")
+            chunks, total = [], 0
+            while True:
+                block = f.read(min(_READ_BLOCK, limit + 1 - total))
+                if not block:
+                    break
+                if not chunks and first is not None:
+                    why = first(block)
+                    if why:
+                        raise error(path, why)
+                chunks.append(block)
+                total += len(block)
+                if total > limit:
+                    raise error(path, f"larger than the {limit / (1 << 20):g} MB limit")
+    except FileNotFoundError:
+        raise error(path, "file not found") from None
+    except IsADirectoryError:
+        raise error(path, "not a regular file (a directory)") from None
+    except OSError as e:
+        raise error(path, f"cannot read: {e.strerror or e}") from None
+    return b"".join(chunks)
 
 
 @contextmanager

@@ -212,4 +212,4 @@ def test_capture_command(tmp_path, capsys):
     assert (tmp_path / "cap" / "session.json").exists()
     rc = main(["capture", "--minutes", "0", "--out", str(tmp_path / "bad"), "--quiet"])
     assert rc == 2
-    assert "--minutes must be positive" in capsys.readouterr().err
+    assert "argument --minutes: must be a finite number greater than 0" in capsys.readouterr().err

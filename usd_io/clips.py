@@ -21,6 +21,13 @@ complete directory of matching content: a new bake renames a new directory into 
 the stage is replaced, and :func:`remove_unused_clip_dirs` deletes the old one afterwards.
 Chunk layers are written in a ``spawn`` process pool (each process authors its chunks through
 Sdf and exports them); same input gives byte-identical files.
+
+The workers die with the process that started them: each asks the kernel for SIGKILL when its
+parent exits (Linux ``PR_SET_PDEATHSIG``) and also watches its parent id, so a bake killed with
+``kill -9`` leaves no worker behind; on an error or a signal the bake terminates them itself.
+The directory is assembled under a temporary name carrying the bake's pid
+(:func:`runtime.assets.temp_path`), which the next write to the same stage removes if that
+process is gone.
 """
 from __future__ import annotations
 
@@ -30,20 +37,32 @@ import os
 import pickle
 import re
 import shutil
-import tempfile
+import signal
+import sys
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from pxr import Gf, Sdf, Vt
 
+from runtime.assets import pause_point, temp_path
+
 from .stage import StageError
 from .timesamples import SkelValues, author_tracks, define_animated_specs
 
 __all__ = ["write_clip_layers", "ClipLayers", "remove_unused_clip_dirs", "clip_dir_pattern", "export_with_digest",
-           "MANIFEST"]
+           "failed_stage_path", "MANIFEST"]
 
 MANIFEST = "manifest.usda"
 GRAPH_FILE = ".graph.pickle"     # the library, for the workers (removed before the rename)
+
+
+def failed_stage_path(out_path) -> Path:
+    """Where a bake keeps a stage that failed its check when asked to (``out.failed.usdc`` beside
+    ``out.usdc``); it may refer to a clip directory named after ``out_path``."""
+    p = Path(out_path)
+    return p.with_name(f"{p.stem}.failed{p.suffix}")
 
 
 def clip_dir_pattern(out_path) -> re.Pattern:
@@ -84,7 +103,26 @@ def _chunk_layer(graph, sv, fps: float, items) -> Sdf.Layer:
 _W: dict = {}
 
 
-def _init_worker(graph_file, fps):
+def _die_with_parent(parent: int) -> None:
+    """End this worker when ``parent`` exits, however it exits (``kill -9`` included)."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)    # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.2)
+        os._exit(1)
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True, name="parent-watch").start()
+
+
+def _init_worker(graph_file, fps, parent):
+    _die_with_parent(parent)
     with open(graph_file, "rb") as f:
         graph = pickle.load(f)
     _W.update(graph=graph, fps=fps, sv=SkelValues.of(graph.skeleton))
@@ -92,6 +130,7 @@ def _init_worker(graph_file, fps):
 
 def _write_chunk(args):
     directory, name, items = args
+    pause_point("clips")
     layer = _chunk_layer(_W["graph"], _W["sv"], _W["fps"], items)
     return name, export_with_digest(layer, Path(directory) / name)
 
@@ -108,7 +147,7 @@ class ClipLayers:
         self.chunk_of = {str(p): name for name, c in self.tasks for p, _ in c}
         self.workers = max(1, min(int(workers or min(2, os.cpu_count() or 1)), len(self.tasks)))
         self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.clips-tmp-", dir=self.out.parent))
+        self.tmp = temp_path(self.out, suffix="-clips", directory=True)
         self.dir_name: str | None = None
         self._pool = self._pending = None
         try:
@@ -126,7 +165,8 @@ class ClipLayers:
             with open(graph_file, "wb") as f:
                 pickle.dump(graph, f, protocol=pickle.HIGHEST_PROTOCOL)
             self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                             initializer=_init_worker, initargs=(str(graph_file), self.fps))
+                                             initializer=_init_worker,
+                                             initargs=(str(graph_file), self.fps, os.getpid()))
             self._pending = [self._pool.submit(_write_chunk, (str(self.tmp), n, c)) for n, c in self.tasks]
 
     def wait(self) -> str:
@@ -173,7 +213,12 @@ class ClipLayers:
         }})
 
     def close(self, failed: bool) -> None:
+        """Stop the workers (terminated at once after a failure or a signal: they may be in the
+        middle of a chunk) and remove the temporary directory if it is still there."""
         if self._pool is not None:
+            if failed:      # the executor offers no way to stop running tasks: end its processes
+                for p in list((getattr(self._pool, "_processes", None) or {}).values()):
+                    p.terminate()
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
         if self.tmp.exists():
@@ -196,18 +241,30 @@ def write_clip_layers(out_path, items, graph, fps: float, clips_per: int, worker
     return ClipLayers(out_path, list(items), graph, fps, int(clips_per), workers)
 
 
+def _clip_dir_of(stage_path: Path) -> str:
+    """The clip directory a saved stage names in its customLayerData (or "")."""
+    if not stage_path.is_file():
+        return ""
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(str(stage_path), metadataOnly=True)
+    except Exception:     # an unreadable stage refers to nothing
+        return ""
+    return (layer.customLayerData.get("crowdweave:clipDirectory") if layer else None) or ""
+
+
 def remove_unused_clip_dirs(out_path, keep: str | None = None) -> list[Path]:
     """Delete clip directories of earlier bakes to ``out_path`` other than ``keep`` (default: the
-    one the saved stage names in its customLayerData ``crowdweave:clipDirectory``); returns them."""
+    one the saved stage names in its customLayerData ``crowdweave:clipDirectory``) and the one a
+    kept failed stage (:func:`failed_stage_path`) names; returns them."""
     out = Path(out_path)
     if keep is None:
-        layer = Sdf.Layer.OpenAsAnonymous(str(out), metadataOnly=True) if out.is_file() else None
-        keep = (layer.customLayerData.get("crowdweave:clipDirectory") if layer else None) or ""
+        keep = _clip_dir_of(out)
+    keep = {keep, _clip_dir_of(failed_stage_path(out))}
     pat = clip_dir_pattern(out)
     removed = []
     if out.parent.is_dir():
         for d in sorted(out.parent.iterdir()):
-            if d.is_dir() and pat.fullmatch(d.name) and d.name != keep:
+            if d.is_dir() and pat.fullmatch(d.name) and d.name not in keep:
                 shutil.rmtree(d, ignore_errors=True)
                 removed.append(d)
     return removed

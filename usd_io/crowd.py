@@ -3,7 +3,9 @@
 Layout::
 
     /World                          Xform (defaultPrim)
-    /World/Environment              reference to the world stage (when given)
+    /World/Environment              reference to the world stage (when given; a stage in other
+                                    units or Z up: an Xform converting to metres, Y up, whose
+                                    child Stage holds the reference)
     /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
         crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
@@ -30,8 +32,9 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from pxr import Gf, Sdf, UsdGeom, UsdSkel, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
+from runtime.crowd.scenario import prim_name
 from runtime.crowd.tracks import Track
 from runtime.motion.body import body_mesh
 
@@ -40,7 +43,7 @@ from .stage import check_usd_path, new_stage, open_stage, save_stage, set_defaul
 from .timesamples import SkelValues, attribute_spec, author_tracks, prim_spec, relationship_spec
 
 __all__ = ["build_crowd_stage", "write_crowd_stage", "save_crowd_stage", "read_tracks", "write_props",
-           "character_path", "CHARACTERS"]
+           "character_path", "reference_world", "CHARACTERS"]
 
 CHARACTERS = "/World/Characters"
 BODY_PROTOTYPE = "/Prototypes/Body"
@@ -48,8 +51,10 @@ _T = Sdf.ValueTypeNames
 
 
 def character_path(name: str) -> Sdf.Path:
-    """The SkelRoot path of the character called ``name``."""
-    return Sdf.Path(CHARACTERS).AppendChild(valid_prim_name(name, "Character"))
+    """The SkelRoot path of the character called ``name`` (:func:`runtime.crowd.scenario.prim_name`:
+    a name that is not a USD identifier has its other characters replaced by '_'; the SkelRoot
+    then keeps the original in ``crowdweave:name``)."""
+    return Sdf.Path(CHARACTERS).AppendChild(prim_name(name))
 
 
 def _define_body_prototype(stage, skeleton):
@@ -105,13 +110,49 @@ def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Tr
 
 
 # -- the stage ------------------------------------------------------------------------------------
+def reference_world(stage, world_path, out_path=None):
+    """Reference the world stage as ``/World/Environment`` (by a path relative to ``out_path``
+    when given). The referenced prim is the world's defaultPrim, else its first root prim; a
+    world without prims is not referenced (returns None). A world in other units or Z up (as its
+    metadata says; unauthored means metres and Y up, as the world reader reads it) goes under an
+    Xform that scales by its metersPerUnit and turns Z up into Y up (-90 degrees about X), the
+    reference on its child ``Stage``. Returns the prim holding the reference."""
+    world = Usd.Stage.Open(str(world_path), Usd.Stage.LoadNone)
+    root = world.GetDefaultPrim()
+    if not root:
+        roots = [p for p in world.GetPseudoRoot().GetChildren() if p.IsDefined() and not p.IsAbstract()]
+        if not roots:
+            return None
+        root = roots[0]
+    ref = str(world_path)
+    if out_path is not None:
+        ref = os.path.relpath(os.path.abspath(world_path), os.path.dirname(os.path.abspath(out_path)))
+    ref = ref.replace(os.sep, "/")
+    mpu = float(UsdGeom.GetStageMetersPerUnit(world)) if world.HasAuthoredMetadata("metersPerUnit") else 1.0
+    up = str(UsdGeom.GetStageUpAxis(world)) if world.HasAuthoredMetadata("upAxis") else "Y"
+    if (mpu, up) == (1.0, "Y"):
+        prim = stage.DefinePrim("/World/Environment")
+    else:
+        env = UsdGeom.Xform.Define(stage, "/World/Environment")
+        env.AddScaleOp().Set(Gf.Vec3f(mpu, mpu, mpu))
+        if up == "Z":
+            env.AddRotateXOp().Set(-90.0)
+        prim = stage.DefinePrim("/World/Environment/Stage")
+    if world.GetDefaultPrim():
+        prim.GetReferences().AddReference(ref)
+    else:
+        prim.GetReferences().AddReference(ref, root.GetPath())
+    return prim
+
+
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
                       num_frames: int | None = None, world_path=None, out_path=None, body: bool = True,
                       clips_per: int | None = None, workers: int | None = None):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
     SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
-    one prototype mesh). ``world_path`` (a Y-up, metre world stage) is referenced as
-    ``/World/Environment`` (by a path relative to ``out_path`` when given).
+    one prototype mesh). ``world_path`` (a world stage) is referenced as
+    ``/World/Environment`` (:func:`reference_world`: by a path relative to ``out_path`` when
+    given, converted to metres and Y up when the world is not).
 
     ``clips_per=N`` (requires ``out_path``) writes the time samples (joint translations and
     rotations, ``crowdweave:root``) as value clips, one layer per N characters, in ``workers``
@@ -132,10 +173,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     UsdGeom.Scope.Define(stage, CHARACTERS)
     sk = graph.skeleton
     if world_path is not None:
-        ref = str(world_path)
-        if out_path is not None:
-            ref = os.path.relpath(os.path.abspath(world_path), os.path.dirname(os.path.abspath(out_path)))
-        stage.DefinePrim("/World/Environment").GetReferences().AddReference(ref.replace(os.sep, "/"))
+        reference_world(stage, world_path, out_path)
     if body and tracks:
         _define_body_prototype(stage, sk)
     sv = SkelValues.of(sk)
@@ -155,6 +193,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
             raise ValueError(f"characters {seen[p]!r} and {name!r} both map to the USD prim {p}")
         seen[p] = name
 
+    renamed = [(p, name) for name, (p, _) in zip(tracks, items) if p.name != name]
     if clips_per is None:
         with Sdf.ChangeBlock():
             author_tracks(layer, items, graph, sv,
@@ -169,6 +208,10 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
             with Sdf.ChangeBlock():
                 for path, tr in items:
                     clips.author_clip_set(layer.GetPrimAtPath(target.MapToSpecPath(path)), path, tr)
+    with Sdf.ChangeBlock():      # the original of a name that is not a USD identifier
+        for p, name in renamed:
+            attribute_spec(layer.GetPrimAtPath(target.MapToSpecPath(p)), "crowdweave:name", _T.String, str(name),
+                           custom=True)
     data = {}
     if metadata:
         data["crowdweave"] = dict(metadata)
@@ -196,7 +239,8 @@ def write_crowd_stage(path, tracks: dict, graph, fps: float, *, metadata: dict |
 
 
 def read_tracks(stage_or_path) -> dict:
-    """Tracks (name -> Track) back from a baked stage, from its crowdweave attributes."""
+    """Tracks (name -> Track) back from a baked stage, from its crowdweave attributes; a character
+    is named by its ``crowdweave:name`` when it has one (a name that is not a USD identifier)."""
     stage = open_stage(stage_or_path)
     out = {}
     chars = stage.GetPrimAtPath(CHARACTERS)
@@ -215,7 +259,8 @@ def read_tracks(stage_or_path) -> dict:
         start = int(prim.GetAttribute("crowdweave:startFrame").Get() or 0)
         if not (len(fa) == len(fb) == len(ft) == len(root)):
             raise ValueError(f"{prim.GetPath()}: crowdweave frame arrays and crowdweave:root disagree in length")
-        out[prim.GetName()] = Track(fa, fb, ft, root, start)
+        original = prim.GetAttribute("crowdweave:name")
+        out[(original.Get() if original else None) or prim.GetName()] = Track(fa, fb, ft, root, start)
     return out
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Gf, Sdf, UsdGeom, Vt
 
-from .stage import valid_prim_name
+from runtime.crowd.scenario import prim_name
 
 __all__ = ["write_flock_instancer", "FLOCKS"]
 
@@ -34,7 +34,7 @@ def write_flock_instancer(stage, name: str, positions: np.ndarray, orientations:
         raise ValueError(f"orientations shape {orientations.shape} != ({T}, {N}, 4)")
     if not stage.GetPrimAtPath(FLOCKS):
         UsdGeom.Scope.Define(stage, FLOCKS)
-    path = Sdf.Path(FLOCKS).AppendChild(valid_prim_name(name, "Flock"))
+    path = Sdf.Path(FLOCKS).AppendChild(prim_name(name))
     inst = UsdGeom.PointInstancer.Define(stage, path)
     proto_root = UsdGeom.Scope.Define(stage, path.AppendChild("Prototypes"))
     cone = UsdGeom.Cone.Define(stage, proto_root.GetPath().AppendChild("Agent"))

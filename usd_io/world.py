@@ -102,6 +102,15 @@ _ROUND_GPRIMS = ((UsdGeom.Cylinder, footprint_cylinder, "radius", "radius"),
                  (UsdGeom.Capsule_1, footprint_capsule, "radiusBottom", "radiusTop"))
 
 
+def _usd_error(e) -> str:
+    """The first message of a USD error, without the C++ context around it, on one line
+    (``line 3, column 3: Expected } ...`` for a syntax error)."""
+    msgs = [m.split(" : '", 1)[1].strip().rstrip("'").strip() for m in str(e).split("Error in ")[1:] if " : '" in m]
+    first = msgs[0] if msgs else str(e)
+    first = re.sub(r"^\S*?:(\d+):(\d+): ", r"line \1, column \2: ", first)
+    return " ".join(first.split())[:300]
+
+
 def _open(path) -> Usd.Stage:
     p = Path(path)
     if not p.exists():
@@ -113,8 +122,7 @@ def _open(path) -> Usd.Stage:
     try:
         stage = Usd.Stage.Open(str(p))
     except Tf.ErrorException as e:
-        msg = " ".join(str(e).split())
-        raise WorldError(p, f"not a readable USD file: {msg[:300]}") from None
+        raise WorldError(p, f"not a readable USD file: {_usd_error(e)}") from None
     if stage is None:
         raise WorldError(p, "not a readable USD file")
     return stage
@@ -156,7 +164,10 @@ class _Reader:
         self.time = Usd.TimeCode.EarliestTime()
         self.xf = UsdGeom.XformCache(self.time)
         mpu, up, warnings = world_units(stage)
-        self.K = units_matrix(mpu, up)
+        try:
+            self.K = units_matrix(mpu, up)
+        except GeometryError as e:
+            raise WorldError(file, f"stage metadata: {e}") from None
         # local forward axis: +Z in a Y-up stage, -Y in a Z-up stage (K's rotation maps it to +Z)
         self.forward = np.array([0.0, 0.0, 1.0]) if up.upper() == "Y" else np.array([0.0, -1.0, 0.0])
         self.side = np.array([1.0, 0.0, 0.0])

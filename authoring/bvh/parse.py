@@ -17,12 +17,16 @@ float conversion) rather than token by token.
 """
 from __future__ import annotations
 
+import errno
 import os
 import re
 from itertools import chain
 from pathlib import Path
 
 import numpy as np
+
+from runtime.assets import read_bounded
+from runtime.limits import MAX_BVH_BYTES
 
 __all__ = ["BVHError", "MAX_ABS_VALUE", "Tokens", "Joint", "as_text", "split_lines", "parse_number",
            "parse_hierarchy", "parse_motion_header", "parse_frames"]
@@ -100,7 +104,11 @@ def as_text(path_or_text, name):
             return (name or "<bvh text>"), path_or_text
     p = Path(os.fspath(path_or_text))
     label = name or str(p)
-    return label, _decode(p.read_bytes(), label)
+    if not p.exists():
+        raise FileNotFoundError(errno.ENOENT, "No such file or directory", str(p))
+    # a hard size limit whatever the file system reports (a device, /proc, a growing file)
+    data = read_bounded(p, MAX_BVH_BYTES, lambda path, reason: BVHError(label, 1, reason))
+    return label, _decode(data, label)
 
 
 def _decode(data: bytes, label: str) -> str:

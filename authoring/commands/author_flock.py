@@ -4,23 +4,31 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
+
+from authoring.commands.args import check_output, integer, limits, number
+from runtime.limits import MAX_FLOCK_AGENT_SECONDS, MAX_FLOCK_AGENTS, MAX_FLOCK_SECONDS, MAX_SEED
 
 
 def configure(p):
-    p.add_argument("--agents", type=int, default=20, help="agents in the flock (default 20)")
+    p.add_argument("--agents", type=integer(2, MAX_FLOCK_AGENTS), default=20,
+                   help=f"agents in the flock (default 20; {limits(2, MAX_FLOCK_AGENTS)})")
     p.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2: on the ground plane, 3: flying (default 2)")
-    p.add_argument("--seconds", type=float, default=300.0, help="seconds of flock to record (default 300)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the simulation (default 0)")
+    p.add_argument("--seconds", type=number(0, MAX_FLOCK_SECONDS, lo_open=True), default=300.0,
+                   help=f"seconds of flock to record (default 300; {limits(0, MAX_FLOCK_SECONDS, lo_open=True)}, "
+                        f"and agents x seconds at most {MAX_FLOCK_AGENT_SECONDS:g})")
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                   help=f"random seed of the simulation (default 0; {limits(0, MAX_SEED)})")
     p.add_argument("--out", required=True, help="output pack (.cwpack, kind 'ddg')")
-    p.add_argument("--stride", type=int, default=None, help="frames between candidate configurations (default 15)")
-    p.add_argument("--transitions-per-minute", type=float, default=None,
-                   help="local minima taken per minute of recording (default 30)")
-    p.add_argument("--max-rms", type=float, default=None,
-                   help="largest configuration distance joined, metres (default 0.6 in 2D, 0.9 in 3D)")
+    p.add_argument("--stride", type=integer(1, 3000), default=None,
+                   help="frames between candidate configurations (default 15; 1-3000)")
+    p.add_argument("--transitions-per-minute", type=number(0, 10000, lo_open=True), default=None,
+                   help="local minima taken per minute of recording (default 30; > 0, at most 10000)")
+    p.add_argument("--max-rms", type=number(0, 100, lo_open=True), default=None,
+                   help="largest configuration distance joined, metres (default 0.6 in 2D, 0.9 in 3D; "
+                        "> 0, at most 100)")
     p.add_argument("--brute-force", action="store_true",
                    help="evaluate the exact metric for every pair (no lower-bound pruning; same result, slower)")
-    p.add_argument("--workers", type=int, default=1, help="processes for the exact metric (default 1)")
+    p.add_argument("--workers", type=integer(1, 64), default=1, help="processes for the exact metric (default 1; 1-64)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -32,10 +40,10 @@ def run(args) -> int:
     from authoring.ddg import DDGBuildParams, build_ddg
     from runtime.flock.ddg import save_ddg
 
-    if args.agents < 2:
-        raise CLIError(f"--agents must be at least 2, got {args.agents}")
-    if not args.seconds > 0:
-        raise CLIError(f"--seconds must be positive, got {args.seconds}")
+    out = check_output(args.out)
+    if args.agents * args.seconds > MAX_FLOCK_AGENT_SECONDS:
+        raise CLIError(f"--agents {args.agents} x --seconds {args.seconds:g} is more than the limit of "
+                       f"{MAX_FLOCK_AGENT_SECONDS:g} agent-seconds of recording")
     quiet = args.quiet or not sys.stderr.isatty()
     kw = {}
     if args.stride is not None:
@@ -46,7 +54,7 @@ def run(args) -> int:
         kw["max_rms"] = args.max_rms
     if args.brute_force:
         kw["use_bound"] = False
-    kw["workers"] = max(1, args.workers)
+    kw["workers"] = args.workers
     try:
         bparams = DDGBuildParams(**kw)
         rparams = BoidsParams(n_agents=args.agents, dim=args.dim)
@@ -68,7 +76,6 @@ def run(args) -> int:
         ddg, st = build_ddg(rec, bparams, progress=progress)
     except ValueError as e:
         raise CLIError(f"cannot build a flock graph: {e}") from None
-    out = Path(args.out)
     save_ddg(out, ddg)
     print(f"difference matrix: {st.candidates} candidates, {st.pairs} pairs, {st.exact_evaluations} exact "
           f"evaluations ({100 * st.skipped_fraction:.1f}% skipped by the lower bound, {st.rounds} rounds, "

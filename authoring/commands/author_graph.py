@@ -3,22 +3,25 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
+
+from authoring.commands.args import check_output, number
 
 
 def configure(p):
     p.add_argument("inputs", nargs="+", help="take directories (procedural capture) and/or BVH files")
     p.add_argument("--out", required=True, help="output pack (.cwpack); a USD preview is written beside it")
-    p.add_argument("--scale", type=float, default=None, help="metres per BVH unit (default: by skeleton family)")
+    p.add_argument("--scale", type=number(0, 1000, lo_open=True), default=None,
+                   help="metres per BVH unit (default: by skeleton family; > 0, at most 1000)")
     p.add_argument("--labels", default=None,
                    help="label sidecar JSON, one label for all BVH frames, or 'derive' (default: sidecars, "
                         "else derived from the motion: stand, turn on the spot, walk; hops, backward or "
                         "sideways travel and uneven ground left out)")
     p.add_argument("--mirror", action="store_true",
                    help="add every take mirrored left to right (a left turn becomes a right turn)")
-    p.add_argument("--fps", type=float, default=30.0, help="graph frame rate (default 30)")
-    p.add_argument("--threshold", type=float, default=None,
-                   help="hub match threshold, RMS cm (default 6; 14 for capture with derived labels)")
+    p.add_argument("--fps", type=number(0, 1000, lo_open=True), default=30.0,
+                   help="graph frame rate (default 30; > 0, at most 1000)")
+    p.add_argument("--threshold", type=number(0, 1000, lo_open=True), default=None,
+                   help="hub match threshold, RMS cm (default 6; 14 for capture with derived labels; > 0, at most 1000)")
     p.add_argument("--no-usd", action="store_true", help="skip the USD preview")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -32,6 +35,9 @@ def run(args) -> int:
     from authoring.motion_graph.sources import LabelError
     from runtime.motion import SkeletonMismatchError
 
+    out = check_output(args.out)
+    if not args.no_usd:
+        check_output(out.with_suffix(".usda"), None, "--out (its USD preview)")
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
     try:
@@ -44,7 +50,6 @@ def run(args) -> int:
         raise CLIError(str(e)) from None
     for line in report:
         print(line)
-    out = Path(args.out)
     g.save(out)
     s = g.summary()
     print(f"wrote {out}: {s['nodes']} nodes, {s['edges']} edges, {s['seconds']} s of motion, "

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
+
+from authoring.commands.args import check_output, integer, limits, number
+from runtime.limits import MAX_SEED
 
 
 def configure(p):
@@ -22,12 +24,15 @@ def configure(p):
                         "takes' eventless stretches, or none (default auto: library if it is built, else takes)")
     p.add_argument("--library", default="default",
                    help="motion-graph library for single-character patches and pose-class names (default: default)")
-    p.add_argument("--seed", type=int, default=0, help="seed for choosing among parallel library edges (default 0)")
-    p.add_argument("--threshold", type=float, default=None, help="pose-group threshold, RMS metres (default 0.06)")
-    p.add_argument("--k", type=int, default=None, help="largest pose groups considered (default 10)")
-    p.add_argument("--weight", type=float, default=None,
-                   help="frames per extra pose class in the boundary cost (default 60)")
-    p.add_argument("--max-pad", type=float, default=None, help="seconds a boundary may lie from its episode (default 5)")
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                   help=f"seed for choosing among parallel library edges (default 0; {limits(0, MAX_SEED)})")
+    p.add_argument("--threshold", type=number(0, 10, lo_open=True), default=None,
+                   help="pose-group threshold, RMS metres (default 0.06; > 0, at most 10)")
+    p.add_argument("--k", type=integer(1, 16), default=None, help="largest pose groups considered (default 10; 1-16)")
+    p.add_argument("--weight", type=number(0, 1e6), default=None,
+                   help="frames per extra pose class in the boundary cost (default 60; 0-1e6)")
+    p.add_argument("--max-pad", type=number(0, 600, lo_open=True), default=None,
+                   help="seconds a boundary may lie from its episode (default 5; > 0, at most 600)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -40,6 +45,7 @@ def run(args) -> int:
     from authoring.takes import TakeError, find_take_dirs, load_take
     from runtime.assets import AssetError
 
+    out = check_output(args.out)
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
     params = PatchBuildParams()
@@ -89,7 +95,6 @@ def run(args) -> int:
     lib = res.library
     if not lib.patches:
         raise CLIError("no patches could be built from these takes (no episodes and no single-character material)")
-    out = Path(args.out)
     try:
         lib.save(out)
     except OSError as e:

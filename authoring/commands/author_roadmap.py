@@ -4,18 +4,24 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
+from authoring.commands.args import check_output, integer, limits, number
 from authoring.roadmap import WALK_RADIUS
+from runtime.limits import MAX_ROADMAP_NODES, MAX_SEED
 
 
 def configure(p):
     p.add_argument("world", help="world stage (.usda/.usdc/.usd)")
     p.add_argument("--out", required=True, help="output pack (.cwpack)")
-    p.add_argument("--radius", type=float, default=WALK_RADIUS, help=f"character radius the obstacles are grown by, m (default {WALK_RADIUS}: a walking character's bounding cylinder)")
-    p.add_argument("--connect", type=float, default=3.0, help="largest edge length, m (default 3)")
-    p.add_argument("--samples", type=int, default=None, help="number of nodes (default: about one per 2 m^2 of free ground)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--radius", type=number(0, 10), default=WALK_RADIUS,
+                   help=f"character radius the obstacles are grown by, m (default {WALK_RADIUS}: a walking "
+                        "character's bounding cylinder; 0-10)")
+    p.add_argument("--connect", type=number(0, 100, lo_open=True), default=3.0,
+                   help="largest edge length, m (default 3; > 0, at most 100)")
+    p.add_argument("--samples", type=integer(2, MAX_ROADMAP_NODES), default=None,
+                   help=f"number of nodes (default: about two per m^2 of free ground; {limits(2, MAX_ROADMAP_NODES)})")
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                   help=f"random seed (default 0; {limits(0, MAX_SEED)})")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -26,6 +32,7 @@ def run(args) -> int:
     from authoring.roadmap import build_roadmap
     from usd_io.world import WorldError, read_world
 
+    out = check_output(args.out)
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
     try:
@@ -53,7 +60,6 @@ def run(args) -> int:
     finally:
         for b in bars.values():
             b.close()
-    out = Path(args.out)
     rm.save(out)
     s = rm.summary()
     print(f"wrote {out}: {s['nodes']} nodes, {s['edges']} edges, mean degree {s['mean_degree']}, "

@@ -1,6 +1,17 @@
 """``crowdweave bake SAMPLE --out out.usdc [--report report.json] [--clips-per N]``: plan a
 scenario, write the baked crowd to USD (optionally as value clips, one layer per N characters),
-read it back and print the independent checker's summary."""
+read it back and print the independent checker's summary.
+
+Nothing is replaced unless the run succeeds. Every input is checked before work starts (the
+scenario against its schema and limits, the numbers on the command line, that ``--out`` and
+``--report`` can be written). The stage is written to a temporary file beside ``--out`` and the
+checker reads that file; only a stage that passes is renamed onto ``--out`` (and only then is
+the report written). A stage that fails is removed, or with ``--keep-failed`` kept as
+``OUT.failed.usdc`` (report ``REPORT.failed.json``) beside the good one. Temporary files and
+directories are removed on every exit path (errors, Ctrl-C, SIGTERM); those of a bake killed
+with ``kill -9`` carry its pid and are removed by the next bake to the same path; value-clip
+workers die with the bake (:mod:`usd_io.clips`).
+"""
 from __future__ import annotations
 
 import json
@@ -8,47 +19,54 @@ import sys
 import time
 from pathlib import Path
 
+from authoring.commands.args import integer, limits
+from runtime.limits import MAX_CHARACTERS, MAX_SEED
+
+MAX_WORKERS = 64
+
 
 def configure(p):
     p.add_argument("sample", help="a sample directory (with scenario.toml) or a scenario .toml file")
     p.add_argument("--out", required=True, help="output stage (.usdc default, .usda for text)")
     p.add_argument("--report", default=None, help="write the checker's full report as JSON")
-    p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=None,
+                   help=f"override the scenario's seed ({limits(0, MAX_SEED)})")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--clips-per", type=int, default=None, metavar="N",
+    p.add_argument("--clips-per", type=integer(1, MAX_CHARACTERS), default=None, metavar="N",
                    help="write the animation as USD value clips, one layer per N characters, in a directory "
-                        "beside --out (for very large crowds)")
-    p.add_argument("--workers", type=int, default=None, metavar="W",
-                   help="processes writing value-clip layers (default 2)")
+                        f"beside --out (for very large crowds; {limits(1, MAX_CHARACTERS)})")
+    p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=None, metavar="W",
+                   help=f"processes writing value-clip layers (default 2; {limits(1, MAX_WORKERS)})")
+    p.add_argument("--keep-failed", action="store_true",
+                   help="when the checker fails, keep the new stage as OUT.failed.usdc (and the report as "
+                        "REPORT.failed.json) beside the previous ones; by default a failed bake writes nothing")
 
 
 def load_sample(sample, log=print, progress=True):
-    """Scenario, library, environment and roadmap of a sample (building what is missing)."""
+    """Scenario, library, environment and roadmap of a sample (building what is missing). The
+    scenario is validated against its world before the library is built or the roadmap made."""
     from authoring.default_library import ensure_library
-    from runtime.crowd.scenario import load_scenario
+    from runtime.crowd.scenario import parse_scenario, read_scenario_toml, scenario_sources
     from runtime.library import load_library
     sp = Path(sample)
     toml = sp / "scenario.toml" if sp.is_dir() else sp
     base = toml.parent
-    import tomllib
-    try:
-        head = tomllib.loads(toml.read_text())
-    except FileNotFoundError:
-        from runtime.crowd.scenario import ScenarioError
-        raise ScenarioError(f"{toml}: scenario file not found") from None
-    env = roadmap = None
-    if head.get("world"):
-        from authoring.roadmap import load_or_build_roadmap
-        from runtime.library import cache_dir
+    data = read_scenario_toml(toml)
+    world_name, lib_name = scenario_sources(data, str(toml))
+    env = world = None
+    if world_name:
         from usd_io.world import read_world
-        world = base / head["world"]
+        world = base / world_name
         env = read_world(world)
-        if len(env.polygons) or len(env.circles):
-            roadmap = load_or_build_roadmap(world, cache_dir() / "roadmaps", seed=0, env=env)
-    lib_name = head.get("library", "default")
+    parse_scenario(data, str(toml), env=env)          # everything but the library's poses, before building it
     ensure_library(lib_name, base, log=log, progress=progress)
     graph = load_library(lib_name, base)
-    sc = load_scenario(toml, env=env, node_labels=set(graph.node_labels_all()))
+    sc = parse_scenario(data, str(toml), env=env, node_labels=set(graph.node_labels_all()))
+    roadmap = None
+    if env is not None and (len(env.polygons) or len(env.circles)):
+        from authoring.roadmap import load_or_build_roadmap
+        from runtime.library import cache_dir
+        roadmap = load_or_build_roadmap(world, cache_dir() / "roadmaps", seed=0, env=env)
     if sc.flocks:
         from authoring.flock_cache import resolve_scenario_flocks
         resolve_scenario_flocks(sc, base, log=log, progress=progress)
@@ -115,30 +133,55 @@ def bake_tilings(sc, graph, env, fps, num_frames):
     return zones, report
 
 
+def _print_summary(sc, report, tiling_report, flock_report, n, t_plan, t_write, out_note, warnings):
+    if tiling_report:
+        for zr in tiling_report["zones"]:
+            print(f"tiling {zr['name']}: {zr['characters']} characters, {zr['patches']} patches, danglings "
+                  f"{zr['danglings']}, interpenetrations {zr['interpenetrations']}, frames over deformation limits "
+                  f"{zr['frames_over_limits']}, obstacle hits {zr['obstacle_hits']}")
+    if flock_report:
+        print(f"flocks: {flock_report['flocks']} flocks of {flock_report['agents']}, frames outside their region "
+              f"{flock_report['frames_outside']}, worst step / recorded max {flock_report['worst_step_ratio']:.3f}")
+    s = report["summary"]
+    print(f"{sc.name}: {n} characters planned in {t_plan:.2f} s"
+          + (f" ({t_plan / n * 1000:.0f} ms each)" if n else "") + f", {out_note} in {t_write:.1f} s")
+    print(f"checker: position error <= {s['max_position_error_mm']:.3g} mm, heading error <= "
+          f"{s['max_heading_error_deg']:.3g} deg, {s['goals_in_window']}/{s['goals']} arrivals in window, "
+          f"{s['poses_ok']}/{s['goals']} poses right")
+    print(f"checker: adjustment within eps for {s['characters_within_eps']}/{n} characters "
+          f"(max {s['max_adjust_m_s'] * 100:.2f} cm/s, {s['max_adjust_deg_s']:.2f} deg/s, {s['max_adjust_s_s']:.4f} s/s); "
+          f"{s['character_overlap_pairs']} overlapping pairs, {s['obstacle_overlap_characters']} characters in obstacles")
+    print(f"checker: {'PASSED' if s['passed'] else 'FAILED'}" + (f"  ({len(warnings)} planner warnings)" if warnings else ""))
+
+
 def run(args) -> int:
     from tqdm import tqdm
 
     from authoring.commands import CLIError
-    from runtime.assets import AssetError
+    from authoring.commands.args import check_output
+    from runtime.assets import AssetError, atomic_write_bytes, commit_temp, pause_point, sweep_stale_temps, temp_path
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scenario import ScenarioError
     from runtime.crowd.scheduler import plan_scenario
+    from usd_io.clips import failed_stage_path, remove_unused_clip_dirs
     from usd_io.crowd import read_tracks
+    from usd_io.stage import USD_EXTENSIONS, export_layer
 
     quiet = args.quiet or not sys.stderr.isatty()
-    out = Path(args.out)
-    if out.suffix not in (".usda", ".usdc", ".usd"):
-        raise CLIError(f"{out}: output must end in .usdc, .usda or .usd")
-    if args.clips_per is not None and args.clips_per < 1:
-        raise CLIError(f"--clips-per must be at least 1, got {args.clips_per}")
-    if args.workers is not None and args.workers < 1:
-        raise CLIError(f"--workers must be at least 1, got {args.workers}")
+    out = check_output(args.out, USD_EXTENSIONS, "--out")
+    report_path = check_output(args.report, None, "--report") if args.report else None
+    if report_path is not None and report_path.resolve() == out.resolve():
+        raise CLIError(f"--report {report_path}: the same file as --out")
+    for p in (out, report_path):
+        if p is not None:
+            sweep_stale_temps(p)            # left by bakes that were killed
     try:
         sc, graph, env, roadmap = load_sample(args.sample, progress=not quiet)
     except (ScenarioError, AssetError, ValueError, FileNotFoundError) as e:
         raise CLIError(str(e)) from None
     if args.seed is not None:
         sc.seed = args.seed
+    pause_point("planning")
     t0 = time.perf_counter()
     with tqdm(total=len(sc.characters), desc="planning", unit="char", disable=quiet) as bar:
         try:
@@ -150,57 +193,60 @@ def run(args) -> int:
     tracks = {c.name: c.track for c in result.characters}
     flock_report = bake_flocks(sc, env, result.fps, result.num_frames) if sc.flocks else None
     zones, tiling_report = bake_tilings(sc, graph, env, result.fps, result.num_frames) if sc.tilings else ([], None)
-    from usd_io.crowd import build_crowd_stage, save_crowd_stage
-    world_path = None
-    if sc.world:
-        from usd_io.world import read_world_units
-        world_path = Path(sc.path).parent / sc.world
-        if read_world_units(world_path) != (1.0, "Y"):
-            world_path = None          # a referenced stage must share the bake's metres / Y up
-    stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
-                              out_path=out, clips_per=args.clips_per, workers=args.workers,
-                              metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
-    for z in zones:   # tiled characters: SkelRoots like the crowd's, posed from the zone's patches
-        build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames)
+
     from runtime.crowd.tracks import box_trajectories
-    from usd_io.crowd import write_props
-    write_props(stage, box_trajectories(sc, result.characters, graph, env, result.num_frames))
-    if flock_report:
-        from usd_io.flock import write_flock_instancer
-        for name, (pos, ori) in flock_report.pop("_arrays").items():
-            write_flock_instancer(stage, name, pos, ori)
-    save_crowd_stage(stage, out)
-    t_write = time.perf_counter() - t0 - t_plan
-    # the checker reads the baked stage back, not the planner's objects
-    report = check_crowd(sc, read_tracks(out) if sc.characters else {}, graph, env, result.fps).to_dict()
-    if tiling_report:
-        report["tiling"] = tiling_report
-        report["summary"]["passed"] = report["summary"]["passed"] and tiling_report["passed"]
-        for zr in tiling_report["zones"]:
-            print(f"tiling {zr['name']}: {zr['characters']} characters, {zr['patches']} patches, danglings "
-                  f"{zr['danglings']}, interpenetrations {zr['interpenetrations']}, frames over deformation limits "
-                  f"{zr['frames_over_limits']}, obstacle hits {zr['obstacle_hits']}")
-    if flock_report:
-        report["flocks"] = flock_report
-        report["summary"]["passed"] = report["summary"]["passed"] and flock_report["passed"]
-        print(f"flocks: {flock_report['flocks']} flocks of {flock_report['agents']}, frames outside their region "
-              f"{flock_report['frames_outside']}, worst step / recorded max {flock_report['worst_step_ratio']:.3f}")
-    s = report["summary"]
-    n = len(sc.characters)
-    print(f"{sc.name}: {n} characters planned in {t_plan:.2f} s"
-          + (f" ({t_plan / n * 1000:.0f} ms each)" if n else "") + f", wrote {out} in {t_write:.1f} s")
-    print(f"checker: position error <= {s['max_position_error_mm']:.3g} mm, heading error <= "
-          f"{s['max_heading_error_deg']:.3g} deg, {s['goals_in_window']}/{s['goals']} arrivals in window, "
-          f"{s['poses_ok']}/{s['goals']} poses right")
-    print(f"checker: adjustment within eps for {s['characters_within_eps']}/{n} characters "
-          f"(max {s['max_adjust_m_s'] * 100:.2f} cm/s, {s['max_adjust_deg_s']:.2f} deg/s, {s['max_adjust_s_s']:.4f} s/s); "
-          f"{s['character_overlap_pairs']} overlapping pairs, {s['obstacle_overlap_characters']} characters in obstacles")
-    warnings = [w for c in result.characters for w in c.warnings]
-    print(f"checker: {'PASSED' if s['passed'] else 'FAILED'}" + (f"  ({len(warnings)} planner warnings)" if warnings else ""))
-    if args.report:
+    from usd_io.crowd import build_crowd_stage, write_props
+    world_path = Path(sc.path).parent / sc.world if sc.world else None
+    tmp = None
+    try:
+        stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
+                                  out_path=out, clips_per=args.clips_per, workers=args.workers,
+                                  metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
+        for z in zones:   # tiled characters: SkelRoots like the crowd's, posed from the zone's patches
+            build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames)
+        write_props(stage, box_trajectories(sc, result.characters, graph, env, result.num_frames))
+        if flock_report:
+            from usd_io.flock import write_flock_instancer
+            for name, (pos, ori) in flock_report.pop("_arrays").items():
+                write_flock_instancer(stage, name, pos, ori)
+        pause_point("writing")
+        tmp = temp_path(out, suffix=".tmp" + out.suffix)
+        export_layer(stage.GetRootLayer(), str(tmp))
+        t_write = time.perf_counter() - t0 - t_plan
+        pause_point("checking")
+        # the checker reads the baked stage back (the temporary file), not the planner's objects
+        report = check_crowd(sc, read_tracks(tmp) if sc.characters else {}, graph, env, result.fps).to_dict()
+        if tiling_report:
+            report["tiling"] = tiling_report
+            report["summary"]["passed"] = report["summary"]["passed"] and tiling_report["passed"]
+        if flock_report:
+            report["flocks"] = flock_report
+            report["summary"]["passed"] = report["summary"]["passed"] and flock_report["passed"]
+        passed = report["summary"]["passed"]
+        warnings = [w for c in result.characters for w in c.warnings]
         report["timing"] = {"plan_seconds": t_plan, "write_seconds": t_write,
                             "per_character": {c.name: c.seconds for c in result.characters}}
         report["warnings"] = warnings
-        from runtime.assets import atomic_write_bytes
-        atomic_write_bytes(args.report, json.dumps(report, indent=1, default=float).encode())
-    return 0 if s["passed"] else 1
+        if passed:
+            pause_point("replacing")
+            commit_temp(tmp, out)
+            note = f"wrote {out}"
+            if report_path is not None:
+                atomic_write_bytes(report_path, json.dumps(report, indent=1, default=float).encode())
+        elif args.keep_failed:
+            failed = failed_stage_path(out)
+            commit_temp(tmp, failed)
+            note = f"{out} not replaced: the failed stage is {failed}"
+            if report_path is not None:
+                rp = report_path.with_name(f"{report_path.stem}.failed{report_path.suffix}")
+                atomic_write_bytes(rp, json.dumps(report, indent=1, default=float).encode())
+                note += f", its report {rp}"
+        else:
+            note = f"{out} not replaced (the checker failed; --keep-failed keeps the new stage beside it)"
+    finally:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
+        # a clip directory written for this bake that no kept stage refers to goes too
+        remove_unused_clip_dirs(out)
+    _print_summary(sc, report, tiling_report, flock_report, len(sc.characters), t_plan, t_write, note, warnings)
+    return 0 if passed else 1

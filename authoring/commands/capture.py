@@ -13,14 +13,21 @@ from __future__ import annotations
 import sys
 import time
 
+from authoring.commands.args import check_output_dir, integer, limits, number
+from runtime.limits import MAX_CAPTURE_MINUTES, MAX_REPEAT, MAX_SEED, MAX_TAKE_MINUTES
+
 
 def configure(parser):
-    parser.add_argument("--minutes", type=float, default=3.0, help="total minutes of motion (default 3)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--fps", type=float, default=30.0, help="frame rate (default 30)")
-    parser.add_argument("--take-minutes", type=float, default=2.0,
-                        help="length of one take in minutes (default 2)")
+    parser.add_argument("--minutes", type=number(0, MAX_CAPTURE_MINUTES, lo_open=True), default=3.0,
+                        help=f"total minutes of motion (default 3; {limits(0, MAX_CAPTURE_MINUTES, lo_open=True)})")
+    parser.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                        help=f"random seed (default 0; {limits(0, MAX_SEED)})")
+    parser.add_argument("--out", required=True,
+                        help="output directory (an earlier capture there is replaced: its takes are removed)")
+    parser.add_argument("--fps", type=number(0, 1000, lo_open=True), default=30.0,
+                        help=f"frame rate (default 30; {limits(0, 1000, lo_open=True)})")
+    parser.add_argument("--take-minutes", type=number(0, MAX_TAKE_MINUTES, lo_open=True), default=2.0,
+                        help=f"length of one take in minutes (default 2; {limits(0, MAX_TAKE_MINUTES, lo_open=True)})")
     parser.add_argument("--no-check", action="store_true", help="skip the quality check at the end")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     g = parser.add_argument_group("multi-character takes (Kim, Hwang, Hyun and Lee 2012)")
@@ -29,7 +36,8 @@ def configure(parser):
                         "per performer + take.json) instead of single-performer takes")
     g.add_argument("--kinds", default=None,
                    help="comma-separated scene kinds for --takes (default: all; see authoring.procedural.interactions)")
-    g.add_argument("--repeat", type=int, default=1, help="takes per kind for --takes (default 1)")
+    g.add_argument("--repeat", type=integer(1, MAX_REPEAT), default=1,
+                   help=f"takes per kind for --takes (default 1; {limits(1, MAX_REPEAT)})")
     g.add_argument("--duet", nargs=2, metavar=("A.bvh", "B.bvh"), default=None,
                    help="also import two BVH files recorded on one clock (e.g. the CMU salsa duet "
                         "60_10 + 61_10) as the two-person take OUT/duet/")
@@ -41,21 +49,11 @@ def run(args) -> int:
     if getattr(args, "takes", False) or getattr(args, "duet", None):
         return _run_takes(args)
 
-    if not (args.minutes > 0):
-        raise CLIError(f"--minutes must be positive, not {args.minutes}")
-    if not (args.take_minutes > 0):
-        raise CLIError(f"--take-minutes must be positive, not {args.take_minutes}")
-    if not (0 < args.fps <= 1000):
-        raise CLIError(f"--fps must be in (0, 1000], not {args.fps}")
-    from pathlib import Path
-
     from tqdm import tqdm
 
     from authoring.procedural import write_session
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CLIError(f"{out}: exists and is not a directory")
+    out = check_output_dir(args.out)
     t0 = time.perf_counter()
     total = args.minutes * 60.0
     with tqdm(total=round(total, 1), unit="s", desc="capture", disable=args.quiet or not sys.stderr.isatty(),
@@ -83,10 +81,20 @@ def run(args) -> int:
     return 0
 
 
+def _earlier_take_dirs(out) -> set:
+    """Take directories an earlier ``--takes`` capture wrote into ``out`` (its takes.json lists
+    them); the new capture removes those it does not write again."""
+    import json
+    try:
+        m = json.loads((out / "takes.json").read_text(encoding="utf-8"))
+        names = {r["name"] for r in m.get("takes", []) if isinstance(r, dict) and isinstance(r.get("name"), str)}
+    except (OSError, ValueError, AttributeError, KeyError):
+        return set()
+    return {n for n in names if "/" not in n and n not in (".", "..") and (out / n / "take.json").is_file()}
+
+
 def _run_takes(args) -> int:
     """``--takes`` / ``--duet``: multi-character takes (authoring.takes)."""
-    from pathlib import Path
-
     from tqdm import tqdm
 
     from authoring.bvh import BVHError
@@ -94,27 +102,25 @@ def _run_takes(args) -> int:
     from authoring.procedural.interactions import SCENES
     from authoring.takes import DEFAULT_KINDS, TakeError, import_cmu_duet, write_takes
 
-    if not (0 < args.fps <= 1000):
-        raise CLIError(f"--fps must be in (0, 1000], not {args.fps}")
     kinds = DEFAULT_KINDS if args.kinds is None else tuple(k.strip() for k in args.kinds.split(",") if k.strip())
     bad = [k for k in kinds if k not in SCENES]
     if bad:
         raise CLIError(f"unknown take kind(s) {', '.join(bad)}; known: {', '.join(SCENES)}")
-    if args.repeat < 1:
-        raise CLIError(f"--repeat must be at least 1, not {args.repeat}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CLIError(f"{out}: exists and is not a directory")
+    out = check_output_dir(args.out)
     t0 = time.perf_counter()
     rows = []
     if args.takes:
         n = len(kinds) * args.repeat
+        earlier = _earlier_take_dirs(out)
         with tqdm(total=n, unit="take", desc="takes", disable=args.quiet or not sys.stderr.isatty()) as bar:
             try:
                 manifest = write_takes(out, args.seed, kinds, args.repeat, args.fps, progress=bar.update)
             except OSError as e:
                 raise CLIError(f"{out}: cannot write ({e.strerror or e})") from None
         rows = manifest["takes"]
+        import shutil
+        for name in sorted(earlier - {r["name"] for r in rows}):     # takes of an earlier capture here
+            shutil.rmtree(out / name, ignore_errors=True)
     if args.duet:
         try:
             tk = import_cmu_duet(args.duet[0], args.duet[1], fps=args.fps, name="duet")

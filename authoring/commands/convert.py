@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from authoring.commands import CLIError
+from authoring.commands.args import check_output, number
 
 _DROP = {"auto": "auto", "yes": True, "no": False}
 
@@ -21,10 +22,11 @@ _DROP = {"auto": "auto", "yes": True, "no": False}
 def configure(parser):
     parser.add_argument("input", help="BVH file to read")
     parser.add_argument("output", help="USD file to write (.usda text, .usdc or .usd binary)")
-    parser.add_argument("--scale", type=float, default=None,
-                        help="metres per BVH file unit (default: by skeleton family; 1 for unknown skeletons)")
-    parser.add_argument("--fps", type=float, default=None,
-                        help="resample to this frame rate (default: keep the file's rate)")
+    parser.add_argument("--scale", type=number(0, 1000, lo_open=True), default=None,
+                        help="metres per BVH file unit (default: by skeleton family; 1 for unknown skeletons; "
+                             "> 0, at most 1000)")
+    parser.add_argument("--fps", type=number(0, 1000, lo_open=True), default=None,
+                        help="resample to this frame rate (default: keep the file's rate; > 0, at most 1000)")
     parser.add_argument("--drop-first-frame", choices=tuple(_DROP), default="auto",
                         help="drop a synthetic T-pose/rest first frame (default: auto-detect)")
     parser.add_argument("--name", default=None,
@@ -41,12 +43,9 @@ def run(args) -> int:
     out = Path(args.output)
     if out.suffix.lower() not in USD_EXTENSIONS:
         raise CLIError(f"{out}: output must end in {', '.join(USD_EXTENSIONS)} (got {out.suffix or 'no extension'!r})")
+    check_output(out, USD_EXTENSIONS, "output")
     if not src.is_file():
         raise CLIError(f"{src}: file not found" if not src.exists() else f"{src}: not a file")
-    if args.scale is not None and not args.scale > 0:
-        raise CLIError(f"--scale must be a positive number of metres per file unit, not {args.scale}")
-    if args.fps is not None and not args.fps > 0:
-        raise CLIError(f"--fps must be positive, not {args.fps}")
     try:
         motion = read_bvh(src, scale=args.scale, drop_first_frame=_DROP[args.drop_first_frame], fps=args.fps)
     except BVHError as e:

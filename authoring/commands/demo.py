@@ -13,13 +13,15 @@ import argparse
 import os
 import sys
 
+from authoring.commands.args import number
+
 
 def configure(p):
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--no-window", action="store_true", help="only build and summarise, do not open the viewer")
-    p.add_argument("--seconds", type=float, default=None,
+    p.add_argument("--seconds", type=number(0, 1e6, lo_open=True), default=None,
                    help="close the viewer after this many seconds (default: when the window is closed; "
-                        "20 s when rendering headless)")
+                        "20 s when rendering headless; > 0, at most 1e6)")
 
 
 def display_available() -> tuple[bool, str]:

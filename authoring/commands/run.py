@@ -7,16 +7,20 @@ from __future__ import annotations
 
 import sys
 
+from authoring.commands.args import integer, number
+
 
 def configure(p):
     p.add_argument("sample", nargs="?", default=None,
                    help="a sample directory or scenario .toml (default: the plaza sample)")
     p.add_argument("--headless", action="store_true", help="render off-screen (no display needed)")
-    p.add_argument("--seconds", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--seconds", type=number(0, 1e6, lo_open=True), default=None,
+                   help="stop after this many seconds (> 0, at most 1e6)")
     p.add_argument("--screenshot", default=None, help="save the last frame as PNG")
-    p.add_argument("--width", type=int, default=1280)
-    p.add_argument("--height", type=int, default=720)
-    p.add_argument("--budget-ms", type=float, default=4.0, help="planning time per tick (ms)")
+    p.add_argument("--width", type=integer(16, 16384), default=1280, help="window width (default 1280; 16-16384)")
+    p.add_argument("--height", type=integer(16, 16384), default=720, help="window height (default 720; 16-16384)")
+    p.add_argument("--budget-ms", type=number(0, 1000, lo_open=True), default=4.0,
+                   help="planning time per tick, ms (default 4; > 0, at most 1000)")
 
 
 def default_sample():
@@ -31,6 +35,9 @@ def run(args) -> int:
     from runtime.crowd.scenario import ScenarioError
     from runtime.viewer import run_viewer
     from runtime.world import World
+    if args.screenshot:
+        from authoring.commands.args import check_output
+        check_output(args.screenshot, (".png",), "--screenshot")
     sample = args.sample or default_sample()
     try:
         sc, graph, env, roadmap = load_sample(sample, progress=sys.stderr.isatty())

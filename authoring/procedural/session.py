@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from runtime.assets import atomic_write_bytes
+from runtime.limits import MAX_CAPTURE_MINUTES, MAX_SEED, MAX_TAKE_MINUTES
 from runtime.motion import Clip
 from runtime.motion.planar import wrap_angle
 
@@ -155,16 +157,27 @@ def _assemble(skel, groups, fps) -> GeneratedTake:
     return GeneratedTake(clip, segs, hubs, props, diag)
 
 
+def _check_session(minutes: float, seed: int, fps: float, take_minutes: float) -> None:
+    if not (0 < minutes <= MAX_CAPTURE_MINUTES):
+        raise ValueError(f"minutes must be positive and at most {MAX_CAPTURE_MINUTES:g}, got {minutes}")
+    if not (0 < take_minutes <= MAX_TAKE_MINUTES):
+        raise ValueError(f"take minutes must be positive and at most {MAX_TAKE_MINUTES:g}, got {take_minutes}")
+    if not (0 < fps <= 1000):
+        raise ValueError(f"fps must be positive and at most 1000, got {fps}")
+    if not (0 <= int(seed) <= MAX_SEED):
+        raise ValueError(f"seed must be from 0 to {MAX_SEED}, got {seed}")
+
+
 def generate_session(minutes: float, seed: int, fps: float = 30.0, take_minutes: float = 2.0,
                      progress=None) -> list[GeneratedTake]:
     """Generate the takes of a session in memory. ``progress(seconds)`` is called as
     motion is produced."""
-    if not (minutes > 0):
-        raise ValueError("minutes must be positive")
-    if not (take_minutes > 0):
-        raise ValueError("take minutes must be positive")
-    if not (fps > 0):
-        raise ValueError("fps must be positive")
+    _check_session(minutes, seed, fps, take_minutes)
+    return list(_iter_session(minutes, seed, fps, take_minutes, progress))
+
+
+def _iter_session(minutes, seed, fps, take_minutes, progress):
+    """The takes of a session one after another (only one is held at a time)."""
     rng = np.random.default_rng(np.random.SeedSequence(int(seed)))
     skel = body.make_skeleton()
     total = minutes * 60.0
@@ -174,7 +187,6 @@ def generate_session(minutes: float, seed: int, fps: float = 30.0, take_minutes:
         lengths[-2] += lengths[-1]
         lengths.pop()
     sched = _Scheduler(rng, skel, fps)
-    takes = []
     for target in lengths:
         state = (0.0, 0.0, float(rng.uniform(-np.pi, np.pi)))
         sched.need_run = True
@@ -187,8 +199,7 @@ def generate_session(minutes: float, seed: int, fps: float = 30.0, take_minutes:
             t += g.num_frames / fps
             if progress is not None:
                 progress(g.num_frames / fps)
-        takes.append(_assemble(skel, groups, fps))
-    return takes
+        yield _assemble(skel, groups, fps)
 
 
 def _sha256(path: Path) -> str:
@@ -199,17 +210,39 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+_TAKE_FILE = re.compile(r"take_\d{3,}\.(bvh|labels\.json)")
+
+
+def _earlier_take_files(out: Path) -> set:
+    """Take files an earlier session left in ``out``: those its session.json lists and any
+    ``take_NNN.bvh`` / ``take_NNN.labels.json`` (a session killed before its manifest)."""
+    names = {p.name for p in out.iterdir() if p.is_file() and _TAKE_FILE.fullmatch(p.name)}
+    try:
+        old = json.loads((out / "session.json").read_text(encoding="utf-8"))
+        names |= {f["path"] for f in old.get("files", []) if isinstance(f, dict) and isinstance(f.get("path"), str)
+                  and _TAKE_FILE.fullmatch(f["path"])}
+    except (OSError, ValueError, AttributeError):
+        pass
+    return names
+
+
 def write_session(out_dir, minutes: float, seed: int, fps: float = 30.0, take_minutes: float = 2.0,
                   progress=None) -> dict:
-    """Generate and write a session; returns the manifest (also written as session.json)."""
+    """Generate and write a session, take by take (memory holds one take); returns the manifest
+    (also written as session.json, last). Writing into the directory of an earlier session
+    replaces it: its session.json goes first (a directory without one is incomplete) and its
+    take files that the new session does not write are removed, so no stale take is read later.
+    """
     from authoring.bvh import write_bvh
 
+    _check_session(minutes, seed, fps, take_minutes)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    takes = generate_session(minutes, seed, fps, take_minutes, progress)
+    earlier = _earlier_take_files(out)
+    (out / "session.json").unlink(missing_ok=True)
     files = []
     take_rows = []
-    for i, tk in enumerate(takes):
+    for i, tk in enumerate(_iter_session(minutes, seed, fps, take_minutes, progress)):
         bvh = out / f"take_{i:03d}.bvh"
         lab = out / f"take_{i:03d}.labels.json"
         write_bvh(bvh, tk.clip, channel_orders="ZYX", scale=body.CMU_UNIT, precision=6)
@@ -221,6 +254,8 @@ def write_session(out_dir, minutes: float, seed: int, fps: float = 30.0, take_mi
                           "seconds": round(tk.clip.num_frames / fps, 4), "segments": counts,
                           "diagnostics": {k: round(v, 6) for k, v in tk.diagnostics.items()}})
         files += [bvh, lab]
+    for name in sorted(earlier - {p.name for p in files}):
+        (out / name).unlink(missing_ok=True)
     manifest = {
         "generator": "crowdweave.procedural",
         "version": GENERATOR_VERSION,

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import PolygonSet, chunk_rows, point_segment_distance_xz, polygon_area
+from .geometry import BoxGrid, PolygonSet, chunk_rows, point_segment_distance_xz, polygon_area
 
 __all__ = ["Marker", "Environment", "SDFGrid", "MARKER_ROLES"]
 
@@ -105,6 +105,8 @@ class Environment:
         self._pset = PolygonSet(polys)
         self._fingerprint = None
         self._bounds_cache = None
+        self._box_grid = None
+        self._centre_tree = None
 
     # -- construction ------------------------------------------------------------------------
     @classmethod
@@ -173,8 +175,9 @@ class Environment:
         inside (see the module docstring); +inf with no obstacles. With ``return_index`` also
         the index (into ``obstacle_paths``) of the nearest obstacle (-1 with none).
 
-        Vectorized over points and obstacles: circles densely, polygons through bounding-circle
-        culling (:class:`~runtime.crowd.geometry.PolygonSet`), exact for every point."""
+        Vectorized over points and obstacles: few points against every obstacle, many through
+        bounding-circle culling of the obstacles near each point (:meth:`_near_pairs`), exact
+        for every point."""
         pts = _as_points(xz)
         shape = pts.shape[:-1]
         flat = pts.reshape(-1, 2)
@@ -191,7 +194,13 @@ class Environment:
             idx[:] = np.argmin(d, axis=1)
             out[:] = d[np.arange(n), idx]
         elif self.num_obstacles > 0 and n > 0:
-            for rows, obs in self._tile_pairs(flat):
+            bad = ~np.all(np.isfinite(flat), axis=1)
+            if bad.any():      # no nearest obstacle for a point that is nowhere
+                out[bad] = np.nan
+                flat = np.where(bad[:, None], 0.0, flat)
+            for rows, obs in self._near_pairs(flat):
+                if len(rows) == 0:
+                    continue
                 d = self._pair_distance(flat[rows, 0], flat[rows, 1], obs)
                 # pairs of one point are contiguous: reduce each run
                 first = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
@@ -201,6 +210,8 @@ class Environment:
                     runs = np.diff(np.r_[first, len(rows)])
                     pos = np.where(d == np.repeat(mins, runs), np.arange(len(d)), len(d))
                     idx[rows[first]] = obs[np.minimum.reduceat(pos, first)]
+            if bad.any():
+                out[bad], idx[bad] = np.nan, -1
         if return_index:
             return out.reshape(shape), idx.reshape(shape)
         return out.reshape(shape)
@@ -215,51 +226,28 @@ class Environment:
             self._bounds_cache = (c, lo, hi)
         return self._bounds_cache
 
-    def _tile_pairs(self, flat, points_per_tile: int = 64, budget: int = 1 << 21):
-        """Candidate (point, obstacle) pairs, in chunks: points are binned into square tiles; an
-        obstacle is a candidate for a tile unless its lower bound over the tile exceeds the
-        smallest upper bound over the tile (so the nearest obstacle of every point is kept).
-        Yields (rows, obs) with each point's pairs contiguous; memory stays around ``budget``
-        elements per chunk."""
-        n = len(flat)
+    def _near_pairs(self, flat, budget: int = 1 << 21):
+        """Candidate (point, obstacle) pairs, in chunks: an upper bound of each point's distance
+        comes from the obstacles with the 4 nearest bounding-circle centres (``|p - c| + hi``);
+        every obstacle whose bounding circle reaches within that bound (found through the
+        obstacle grid) is a candidate, so the nearest obstacle of every point is kept and the
+        work grows with the obstacles near each point, not with all of them. Yields (rows, obs)
+        with each point's pairs contiguous; about ``budget`` (pair, edge) rows per chunk."""
         c, lo, hi = self._obstacle_bounds()
-        lo_pt, hi_pt = flat.min(axis=0), flat.max(axis=0)
-        span = hi_pt - lo_pt
-        tile = max(math.sqrt(float(span[0] * span[1]) * points_per_tile / n),
-                   float(span.max()) * points_per_tile / n, 1e-6)
-        ij = np.floor((flat - lo_pt) / tile).astype(np.int64)
-        key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
-        order = np.argsort(key, kind="stable")
-        ks = key[order]
-        tstart = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-        tcount = np.diff(np.r_[tstart, n])
-        center = lo_pt + (ij[order[tstart]] + 0.5) * tile
-        hd = tile * math.sqrt(0.5) * (1 + 1e-9) + 1e-12
-        weight = np.concatenate([self._pset.counts, np.ones(len(self.circles), dtype=np.int64)])
-        T = len(tstart)
-        for b0 in range(0, T, max(1, budget // len(c))):
-            blk = slice(b0, min(T, b0 + max(1, budget // len(c))))
-            r = np.hypot(center[blk, None, 0] - c[:, 0], center[blk, None, 1] - c[:, 1])
-            ub = (r + hi).min(axis=1) + hd
-            trow, tobs = np.nonzero(r - lo - hd <= ub[:, None])
-            del r
-            tc = tcount[blk]
-            ts = tstart[blk]
-            ccount = np.bincount(trow, minlength=len(tc))
-            cstart = np.cumsum(ccount) - ccount
-            cost = tc * np.bincount(trow, weights=weight[tobs], minlength=len(tc)).astype(np.int64)
-            k0 = 0
-            while k0 < len(tc):
-                csum = np.cumsum(cost[k0:])
-                k1 = k0 + max(1, int(np.searchsorted(csum, budget, side="right")))
-                kk = np.arange(k0, k1)
-                npairs = tc[kk] * ccount[kk]
-                tot = int(npairs.sum())
-                tid = np.repeat(kk, npairs)
-                j = np.arange(tot) - np.repeat(np.cumsum(npairs) - npairs, npairs)
-                m = ccount[tid]
-                yield order[ts[tid] + j // m], tobs[cstart[tid] + j % m]
-                k0 = k1
+        if self._centre_tree is None:
+            from scipy.spatial import cKDTree
+            self._centre_tree = cKDTree(c)
+        k = min(4, len(c))
+        dk, ik = self._centre_tree.query(flat, k=k)
+        dk, ik = dk.reshape(len(flat), k), ik.reshape(len(flat), k)
+        ub = np.min(dk + hi[ik], axis=1)
+        ub = ub + 1e-9 * (1.0 + np.abs(ub))          # the bound is used with rounding-safe slack
+        reach = np.maximum(ub, 0.0)[:, None]
+        per = max(1, self._pset.num_edges // max(1, len(self.polygons)))
+        for rows, obs in self._grid().pairs(flat - reach, flat + reach, budget=max(1, budget // per)):
+            r = np.hypot(flat[rows, 0] - c[obs, 0], flat[rows, 1] - c[obs, 1])
+            keep = r - lo[obs] <= ub[rows]
+            yield rows[keep], obs[keep]
 
     def _pair_distance(self, qx, qz, obs):
         """Signed distance of point k to obstacle ``obs[k]`` (polygon or circle index)."""
@@ -287,6 +275,8 @@ class Environment:
         P, M = len(self.polygons), len(self.circles)
         if P + M == 0 or n == 0:
             return ok.reshape(shape)
+        if n * (P + M) > _DENSE_LIMIT:
+            return ~self._segments_blocked_grid(A, B, r).reshape(shape)
         for sl in chunk_rows(n, P + M + self._pset.num_edges // 2):
             p0x, p0z, p1x, p1z = A[sl, 0], A[sl, 1], B[sl, 0], B[sl, 1]
             rr = r[sl]
@@ -300,6 +290,41 @@ class Environment:
                 good &= np.all((d >= cr[None, :] + rr[:, None]) & (d > cr[None, :]), axis=1)
             ok[sl] = good
         return ok.reshape(shape)
+
+    def _grid(self) -> BoxGrid:
+        """The obstacles' bounding boxes (polygons first, then circles) on a uniform grid."""
+        if self._box_grid is None:
+            P = len(self.polygons)
+            lo, hi = np.zeros((P + len(self.circles), 2)), np.zeros((P + len(self.circles), 2))
+            for i, p in enumerate(self.polygons):
+                lo[i], hi[i] = p.min(axis=0), p.max(axis=0)
+            lo[P:] = self.circles[:, :2] - self.circles[:, 2:]
+            hi[P:] = self.circles[:, :2] + self.circles[:, 2:]
+            self._box_grid = BoxGrid(lo, hi)
+        return self._box_grid
+
+    def _segments_blocked_grid(self, A, B, r) -> np.ndarray:
+        """(n,) bool, the negation of :meth:`segment_clear` for many segments: candidate
+        (segment, obstacle) pairs from the obstacle grid (bounding boxes within ``r`` of the
+        segment's box), then the same bounding-circle cull and exact tests as the dense path.
+        Work grows with the number of nearby pairs, not with segments x obstacles."""
+        P = len(self.polygons)
+        c, lo, _ = self._obstacle_bounds()
+        bad = np.zeros(len(A), dtype=bool)
+        rp = np.maximum(r, 0.0)[:, None]
+        for rows, obs in self._grid().pairs(np.minimum(A, B) - rp, np.maximum(A, B) + rp):
+            p0x, p0z = A[rows, 0], A[rows, 1]
+            abx, abz = B[rows, 0] - p0x, B[rows, 1] - p0z
+            l2 = abx * abx + abz * abz
+            inv = np.divide(1.0, l2, out=np.zeros_like(l2), where=l2 > 0)
+            d = point_segment_distance_xz(c[obs, 0], c[obs, 1], p0x, p0z, abx, abz, inv)
+            rr = r[rows]
+            isp = obs < P
+            poly = isp & (d <= lo[obs] + rr)
+            bad[self._pset.pairs_blocked(A[:, 0], A[:, 1], B[:, 0], B[:, 1], r, rows[poly], obs[poly])] = True
+            cr = lo[obs]
+            bad[rows[~isp & ~((d >= cr + rr) & (d > cr))]] = True
+        return bad
 
     def segment_distance(self, a, b) -> np.ndarray:
         """(...,) distance from segments ``a`` -> ``b`` to the nearest obstacle (0 if a segment

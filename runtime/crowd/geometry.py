@@ -29,7 +29,7 @@ import numpy as np
 __all__ = [
     "GeometryError", "Footprint", "PolygonSet", "polygon_area", "convex_hull", "circle_polygon",
     "point_segment_distance", "point_segment_distance_xz", "segment_segment_distance", "units_matrix", "footprint_points",
-    "footprint_cube", "footprint_sphere", "footprint_cylinder", "footprint_capsule", "chunk_rows",
+    "footprint_cube", "footprint_sphere", "footprint_cylinder", "footprint_capsule", "chunk_rows", "BoxGrid",
 ]
 
 CIRCLE_SIDES = 32          # sides of the circumscribed polygon replacing a round outline
@@ -237,18 +237,24 @@ class PolygonSet:
         dc = point_segment_distance_xz(self.center[None, :, 0], self.center[None, :, 1], p0x[:, None], p0z[:, None],
                  dx[:, None], dz[:, None], inv[:, None])
         rows, polys = np.nonzero(dc <= self.bound[None, :] + radius[:, None])
+        bad[self.pairs_blocked(p0x, p0z, p1x, p1z, radius, rows, polys)] = True
+        return bad
+
+    def pairs_blocked(self, p0x, p0z, p1x, p1z, radius, rows, polys) -> np.ndarray:
+        """Segments (of ``rows``) that come closer than ``radius`` to polygon ``polys[k]`` or
+        start inside it, over candidate pairs ``(rows[k], polys[k])``; returns segment indices
+        (with repeats)."""
         if len(rows) == 0:
-            return bad
+            return np.zeros(0, dtype=np.int64)
         pair, e, off = self._expand(polys)
         rp = rows[pair]
         ax, az, bx, bz = self.ax[e], self.az[e], self.bx[e], self.bz[e]
         d = _segseg(p0x[rp], p0z[rp], p1x[rp], p1z[rp], ax, az, bx, bz)
-        bad[rp[(d < radius[rp]) | (d <= 0.0)]] = True  # touching counts as blocked, also for radius 0
+        near = rp[(d < radius[rp]) | (d <= 0.0)]  # touching counts as blocked, also for radius 0
         qx, qz = p0x[rp], p0z[rp]
         cross = ((az > qz) != (bz > qz)) & (qx < ax + (qz - az) * self.dxdz[e])
         inside = (np.add.reduceat(cross.view(np.uint8), off) & 1).astype(bool)
-        bad[rows[inside]] = True
-        return bad
+        return np.concatenate([near, rows[inside]])
 
     def segment_distance(self, p0x, p0z, p1x, p1z) -> np.ndarray:
         """(n,) distance from segments (column vectors (n, 1)) to the nearest polygon edge (dense)."""
@@ -258,6 +264,99 @@ class PolygonSet:
     def inside_any(self, px, pz) -> np.ndarray:
         """(n,) bool: the point (column vectors (n, 1)) lies inside at least one polygon (dense)."""
         return self._inside(px, pz).any(axis=1)
+
+
+class BoxGrid:
+    """Axis-aligned boxes binned on a uniform grid: which boxes a query box overlaps, in time that
+    grows with the number of answers rather than with the number of boxes.
+
+    Each box is registered in every cell it overlaps; a query visits the cells its own box
+    overlaps and reports a (query, box) pair once, in the cell where both boxes' lower corners
+    meet (the lowest cell of the overlap), so no pair needs de-duplicating. A query box covering
+    more cells than there are boxes is tested against every box instead. The cell is the larger
+    of the median box size and the side of a square holding one box on average over the boxes'
+    bounds, so one box rarely spans many cells and a query box of about a box's size few.
+    """
+
+    MAX_CELLS_PER_SIDE = 4096
+
+    def __init__(self, lo, hi):
+        self.lo = np.ascontiguousarray(lo, dtype=np.float64).reshape(-1, 2)
+        self.hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 2)
+        self.count = k = len(self.lo)
+        if k == 0:
+            return
+        self.origin = self.lo.min(axis=0)
+        span = np.maximum(self.hi.max(axis=0) - self.origin, 1e-9)
+        size = float(np.median(np.max(self.hi - self.lo, axis=1)))
+        self.cell = max(size, float(np.sqrt(span[0] * span[1] / k)), float(span.max()) / self.MAX_CELLS_PER_SIDE, 1e-9)
+        self.shape = (np.floor(span / self.cell).astype(np.int64) + 1)
+        c0, c1 = self._cells(self.lo), self._cells(self.hi)
+        self.first = c0                                   # (k, 2) lowest cell of each box
+        w = c1 - c0 + 1
+        n = w[:, 0] * w[:, 1]
+        box = np.repeat(np.arange(k), n)
+        j = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        key = (c0[box, 0] + j // w[box, 1]) * self.shape[1] + c0[box, 1] + j % w[box, 1]
+        order = np.argsort(key, kind="stable")
+        self.items = box[order]
+        self.start = np.zeros(int(self.shape[0] * self.shape[1]) + 1, dtype=np.int64)
+        np.cumsum(np.bincount(key, minlength=len(self.start) - 1), out=self.start[1:])
+        self.per_cell = max(1.0, len(self.items) / max(1, int(np.count_nonzero(np.diff(self.start)))))
+
+    def _cells(self, p):
+        return np.clip(np.floor((p - self.origin) / self.cell).astype(np.int64), 0, self.shape - 1)
+
+    def pairs(self, qlo, qhi, budget: int = _CHUNK_ELEMENTS):
+        """Yield ``(rows, ids)``: every pair of query box ``rows[k]`` (``qlo``, ``qhi`` (n, 2)) and
+        box ``ids[k]`` that overlap (closed boxes), each pair once, rows ascending; in chunks of
+        about ``budget`` pairs."""
+        qlo = np.asarray(qlo, dtype=np.float64).reshape(-1, 2)
+        qhi = np.asarray(qhi, dtype=np.float64).reshape(-1, 2)
+        n = len(qlo)
+        if self.count == 0 or n == 0:
+            return
+        c0, c1 = self._cells(qlo), self._cells(qhi)
+        w = c1 - c0 + 1
+        ncell = w[:, 0] * w[:, 1]
+        dense = ncell > self.count
+        cost = np.where(dense, self.count, np.ceil(ncell * self.per_cell)).astype(np.int64)
+        csum = np.cumsum(cost)
+        q0 = 0
+        while q0 < n:
+            base = csum[q0 - 1] if q0 else 0
+            q1 = max(q0 + 1, int(np.searchsorted(csum, base + budget, side="right")))
+            q = np.arange(q0, min(q1, n))
+            q0 = q[-1] + 1
+            rows, ids = self._chunk(q[~dense[q]], c0, w, ncell)
+            qd = q[dense[q]]
+            if len(qd):
+                rows = np.concatenate([rows, np.repeat(qd, self.count)])
+                ids = np.concatenate([ids, np.tile(np.arange(self.count), len(qd))])
+                order = np.argsort(rows, kind="stable")
+                rows, ids = rows[order], ids[order]
+            keep = np.all((self.lo[ids] <= qhi[rows]) & (self.hi[ids] >= qlo[rows]), axis=1)
+            yield rows[keep], ids[keep]
+
+    def _chunk(self, q, c0, w, ncell):
+        """Pairs of the queries ``q`` through the cells they overlap (each pair once)."""
+        if len(q) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        nc = ncell[q]
+        rq = np.repeat(q, nc)
+        j = np.arange(int(nc.sum())) - np.repeat(np.cumsum(nc) - nc, nc)
+        cx = c0[rq, 0] + j // w[rq, 1]
+        cz = c0[rq, 1] + j % w[rq, 1]
+        key = cx * self.shape[1] + cz
+        cnt = self.start[key + 1] - self.start[key]
+        rows = np.repeat(rq, cnt)
+        off = np.cumsum(cnt) - cnt
+        ids = self.items[np.repeat(self.start[key] - off, cnt) + np.arange(int(cnt.sum()))]
+        # report the pair only in the lowest cell of the two boxes' overlap
+        cx, cz = np.repeat(cx, cnt), np.repeat(cz, cnt)
+        f = self.first[ids]
+        own = (cx == np.maximum(c0[rows, 0], f[:, 0])) & (cz == np.maximum(c0[rows, 1], f[:, 1]))
+        return rows[own], ids[own]
 
 
 # -- footprints of primitives ------------------------------------------------------------------

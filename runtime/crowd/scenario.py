@@ -25,21 +25,29 @@ start = { position = [0.0, 0.0], heading = 0.0, pose = "stand" }   # or seat = "
   after = { character = "c02", goal = 0, within = [0.0, 1.0] }  # relative timing
 ```
 
-Validation happens before any planning and raises :class:`ScenarioError` naming the
-character and the goal: unknown keys, a dependency cycle, a goal inside an obstacle, a pose
-the library lacks, a window too short for any motion, unknown markers.
+Validation happens before any planning and raises :class:`ScenarioError` with one line naming
+the file, the table (the character and goal, the flock, the tiling zone and team) and the key:
+unknown keys in any table (``[synthesis]`` too), values of the wrong type, numbers that are not
+finite or out of range (degrees, seconds, seeds 0 .. 2^63-1), inputs over the limits of
+:mod:`runtime.limits` (duration, characters x duration, flock recordings), two names that
+become the same USD prim name (:func:`prim_name`), a dependency cycle, a goal inside an
+obstacle, a pose the library lacks, a window too short for any motion, unknown markers.
 """
 from __future__ import annotations
 
 import math
-import tomllib
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..limits import (MAX_CHARACTER_SECONDS, MAX_CHARACTERS, MAX_DURATION, MAX_FLOCK_AGENT_SECONDS, MAX_FLOCK_AGENTS,
+                      MAX_FLOCK_SECONDS, MAX_FLOCKS, MAX_GOALS, MAX_SEED, MAX_TEAM, MAX_TOML_BYTES)
+from .schema import Table, read_toml, show
+
 __all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "FlockSpec", "load_scenario", "parse_scenario",
-           "planning_order", "BOX_REACH"]
+           "read_scenario_toml", "scenario_sources", "planning_order", "prim_name", "BOX_REACH"]
 
 # Distance from a box marker to the root of a character standing at it, facing it (m).
 START_CLEARANCE = 0.3    # m from obstacles a start position needs (the default library's standing
@@ -132,213 +140,271 @@ class Scenario:
 
 
 _TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description", "flock", "tiling"}
+_SYNTHESIS = {"epsilon", "passes", "start_still", "approach_point", "n_m", "k_m", "n_max"}
 _TILING = {"name", "zone", "patches", "period", "horizon", "seed", "team"}
 _TEAM = {"count", "start", "heading", "targets"}
 _FLOCK = {"name", "ddg", "count", "region", "altitude", "positions", "seed"}
+_DDG = {"dim", "agents", "seconds", "seed"}
 _CHAR = {"name", "start", "goal"}
 _START = {"position", "heading", "pose", "seat"}
 _GOAL = {"position", "heading", "pose", "time", "seat", "box", "after"}
+_AFTER = {"character", "goal", "within"}
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
+def prim_name(name: str) -> str:
+    """The USD prim name a baked character (or flock) called ``name`` gets: ``name`` itself when
+    it is a valid identifier (ASCII letters, digits and '_', not starting with a digit), else
+    every other character replaced by '_' and a leading digit kept behind a '_' ("bob smith" ->
+    "bob_smith", "1st" -> "_1st", "Zoë" -> "Zo_"). The bake keeps the original name on the prim
+    (``crowdweave:name``); :func:`parse_scenario` rejects two names that become the same."""
+    name = str(name)
+    if _IDENTIFIER.match(name):
+        return name
+    s = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return "_" + s if not s or s[0].isdigit() else s
 
 
 def _tiling_spec(path, ti: int, rt: dict, markers: dict) -> TilingSpec:
-    name = str(rt.get("name", f"zone{ti}"))
-    where = f"{path}: tiling {name!r}"
-    bad = set(rt) - _TILING
-    if bad:
-        raise ScenarioError(f"{where}: unknown keys {sorted(bad)}")
-    zone = rt.get("zone")
+    t = Table(path, f"tiling {ti}", rt, _TILING, ScenarioError)
+    name = t.string("name", f"zone{ti}", nonempty=True)
+    t.where = f"tiling {name!r}"
+    where = f"{path}: {t.where}"
+    zone = t.string("zone") if "zone" in t else None
     m = markers.get(zone) if zone is not None else None
     if m is None or m.role != "region" or m.polygon is None:
         raise ScenarioError(f"{where}: needs zone = a region marker with an outline in the world (got {zone!r})")
     lo, hi = np.min(m.polygon, axis=0), np.max(m.polygon, axis=0)
     bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
-    patches = str(rt.get("patches", "synthetic"))
+    patches = t.string("patches", "synthetic", nonempty=True)
     if patches != "synthetic":
         pp = Path(path).parent / patches
         if not pp.is_file():
-            raise ScenarioError(f"{where}: patches {patches!r}: no such file ({pp})")
+            t.fail("patches", f"{patches!r}: no such file ({pp})")
         patches = str(pp)
-    teams = []
-    raw = rt.get("team", [])
-    if not isinstance(raw, list) or not raw:
+    raw = t.tables("team", 64)
+    if not raw:
         raise ScenarioError(f"{where}: needs at least one [[tiling.team]]")
+    teams = []
     for k, tm in enumerate(raw):
-        tw = f"{where} team {k}"
-        bad = set(tm) - _TEAM
-        if bad:
-            raise ScenarioError(f"{tw}: unknown keys {sorted(bad)}")
-        try:
-            count = int(tm.get("count", 1))
-            start = tuple(float(v) for v in tm["start"])
-            heading = math.radians(float(tm.get("heading", 0.0)))
-            targets = [tuple(float(v) for v in t) for t in tm.get("targets", [])]
-        except (KeyError, TypeError, ValueError) as e:
-            raise ScenarioError(f"{tw}: needs count, start = [x, z], heading, targets = [[x, z], ...] ({e})") from None
-        if count < 1 or len(start) != 2 or any(len(t) != 2 for t in targets):
-            raise ScenarioError(f"{tw}: count must be >= 1, start and every target [x, z]")
-        for p in [start] + targets:
+        tt = Table(path, f"{t.where} team {k}", tm, _TEAM, ScenarioError)
+        count = tt.integer("count", 1, 1, MAX_TEAM)
+        start = tuple(float(v) for v in tt.vector("start", 2))
+        heading = math.radians(tt.number("heading", 0.0, unit="degrees"))
+        targets = tt.data.get("targets", [])
+        if not isinstance(targets, list) or len(targets) > 1000:
+            tt.fail("targets", f"must be a list of [x, z] points, got {show(targets)}")
+        targets = [tuple(float(v) for v in tt.check_vector(f"targets[{i}]", p, 2)) for i, p in enumerate(targets)]
+        for key, p in [("start", start)] + [(f"targets[{i}]", p) for i, p in enumerate(targets)]:
             if not (bounds[0] < p[0] < bounds[2] and bounds[1] < p[1] < bounds[3]):
-                raise ScenarioError(f"{tw}: point {list(p)} is outside the zone {zone} {bounds}")
+                raise ScenarioError(f"{where} team {k}: point {list(p)} is outside the zone {zone} {bounds} ({key})")
         teams.append({"count": count, "start": start, "heading": heading, "targets": targets})
-    period = float(rt.get("period", 8.0))
-    horizon = float(rt.get("horizon", 1.5))
-    if period <= 0 or horizon <= 0:
-        raise ScenarioError(f"{where}: period and horizon must be positive")
-    return TilingSpec(name, bounds, teams, patches, period, horizon, int(rt.get("seed", ti)), zone)
-
-def _vec2(v, where):
-    try:
-        a = np.asarray(v, dtype=np.float64).reshape(2)
-    except (ValueError, TypeError):
-        raise ScenarioError(f"{where}: expected [x, z], got {v!r}") from None
-    if not np.all(np.isfinite(a)):
-        raise ScenarioError(f"{where}: position is not finite")
-    return a
+    period = t.number("period", 8.0, lo=0.0, hi=MAX_DURATION, lo_open=True, unit="s")
+    horizon = t.number("horizon", 1.5, lo=0.0, hi=60.0, lo_open=True, unit="s")
+    return TilingSpec(name, bounds, teams, patches, period, horizon, t.integer("seed", ti, 0, MAX_SEED), zone)
 
 
 def load_scenario(path, env=None, node_labels=None) -> Scenario:
-    """Read and validate ``scenario.toml`` (a file or a sample directory)."""
+    """Read and validate ``scenario.toml`` (a file or a sample directory); the file is read with
+    a hard size limit (:data:`runtime.limits.MAX_TOML_BYTES`)."""
     p = Path(path)
     if p.is_dir():
         p = p / "scenario.toml"
-    try:
-        data = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise ScenarioError(f"{p}: scenario file not found") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ScenarioError(f"{p}: not valid TOML: {e}") from None
-    return parse_scenario(data, str(p), env=env, node_labels=node_labels)
+    return parse_scenario(read_scenario_toml(p), str(p), env=env, node_labels=node_labels)
+
+
+def scenario_sources(data: dict, path: str = "<scenario>") -> tuple:
+    """(world, library) a parsed scenario names, checked (strings; world None for open ground),
+    for loading them before the whole scenario is validated against them."""
+    top = Table(path, "top level", data, _TOP, ScenarioError)
+    world = top.string("world", nonempty=True) if "world" in top else None
+    return world, top.string("library", "default", nonempty=True)
+
+
+def read_scenario_toml(path) -> dict:
+    """The parsed TOML of a scenario file (ScenarioError naming the file if it cannot be read,
+    is too large or is not valid TOML)."""
+    return read_toml(path, MAX_TOML_BYTES, ScenarioError)
+
+
+def _synthesis(top: Table) -> tuple[dict, tuple]:
+    eps = (0.02, 2.0, 1.0 / 15.0)
+    if "synthesis" not in top:
+        return {}, eps
+    t = top.table("synthesis", "[synthesis]", _SYNTHESIS)
+    if "epsilon" in t:
+        v = t.data["epsilon"]
+        if not (isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                             and math.isfinite(x) and x > 0 for x in v)):
+            t.fail("epsilon", f"must be [m/s, deg/s, s/s]: three positive finite numbers, got {show(v)}")
+        eps = tuple(float(x) for x in v)
+    if "start_still" in t:
+        t.boolean("start_still")
+    if "approach_point" in t:
+        t.number("approach_point", lo=0.0, hi=5.0, unit="m")
+    if "passes" in t:
+        t.integer("passes", lo=1, hi=20)
+    for k, hi in (("n_m", 100_000), ("k_m", 100_000), ("n_max", 1_000_000)):
+        if k in t:
+            t.integer(k, lo=1, hi=hi)
+    return dict(t.data), eps
+
+
+def _flock_spec(path, fi: int, rf, markers: dict) -> FlockSpec:
+    t = Table(path, f"flock {fi}", rf, _FLOCK, ScenarioError)
+    fname = t.string("name", f"flock{fi}", nonempty=True)
+    t.where = f"flock {fname!r}"
+    if "ddg" not in t:
+        t.fail("ddg", "missing: a pack path or {dim, agents, seconds, seed}")
+    ddg = t.data["ddg"]
+    if isinstance(ddg, dict):
+        d = t.table("ddg", f"flock {fname!r} ddg", _DDG)
+        d.integer("dim", 2, 2, 3)
+        agents = d.integer("agents", 20, 2, MAX_FLOCK_AGENTS)
+        seconds = d.number("seconds", 120.0, lo=0.0, hi=MAX_FLOCK_SECONDS, lo_open=True, unit="s")
+        d.integer("seed", 0, 0, MAX_SEED)
+        if agents * seconds > MAX_FLOCK_AGENT_SECONDS:
+            d.fail("seconds", f"{agents} agents x {seconds:g} s is more than the limit of "
+                              f"{MAX_FLOCK_AGENT_SECONDS:g} agent-seconds of recording")
+    else:
+        t.string("ddg", nonempty=True)
+    count = t.integer("count", 1, 1, MAX_FLOCKS)
+    region = t.string("region") if "region" in t else None
+    if region is not None:
+        m = markers.get(region)
+        if m is None or m.role != "region" or m.polygon is None:
+            t.fail("region", f"no region marker {region!r} with an outline in the world")
+    alt = t.interval("altitude", unit="m") if "altitude" in t else None
+    positions = None
+    if "positions" in t:
+        v = t.data["positions"]
+        if not isinstance(v, list) or not 1 <= len(v) <= MAX_FLOCKS:
+            t.fail("positions", f"must be a list of 1 to {MAX_FLOCKS} [x, y, z] centroids, got {show(v)}")
+        positions = [t.check_vector(f"positions[{i}]", p, 3).tolist() for i, p in enumerate(v)]
+    return FlockSpec(fname, ddg, count, region, alt, positions, t.integer("seed", fi, 0, MAX_SEED))
+
+
+def _marker(t: Table, key: str, role: str, markers: dict):
+    path = t.string(key, nonempty=True)
+    m = markers.get(path)
+    if m is None or m.role != role:
+        t.fail(key, f"no {role} marker {path!r} in the world")
+    return path, m
+
+
+def _start(t: Table, name: str, markers: dict):
+    st = t.table("start", f"character {name!r} start", _START)
+    if "seat" in st:
+        if "position" in st:
+            st.fail("seat", "give a position or a seat, not both")
+        path, m = _marker(st, "seat", "seat", markers)
+        return m.position.copy(), m.heading, "sit", path
+    if "position" not in st:
+        st.fail("position", "missing: a start needs a position or a seat")
+    pos = st.vector("position", 2)
+    heading = math.radians(st.number("heading", 0.0, unit="degrees"))
+    return pos, heading, st.string("pose", "stand", nonempty=True), None
+
+
+def _goal(path, where: str, rg, markers: dict, duration: float) -> GoalSpec:
+    g = Table(path, where, rg, _GOAL, ScenarioError)
+    given = [k for k in ("position", "seat", "box") if k in g]
+    if len(given) > 1:
+        g.fail(given[1], f"give one of position, seat or box, not {' and '.join(given)}")
+    kind, marker = "position", None
+    if "seat" in g:
+        marker, m = _marker(g, "seat", "seat", markers)
+        gpos, gh, gpose, kind = m.position.copy(), m.heading, "sit", "seat"
+    elif "box" in g:
+        marker, m = _marker(g, "box", "box", markers)
+        # stand in front of the box, facing it: the box's +Z points at the character
+        fwd = np.array([math.sin(m.heading), math.cos(m.heading)])
+        gpos, gh, gpose, kind = m.position + BOX_REACH * fwd, m.heading + math.pi, "carry", "box"
+    else:
+        if "position" not in g:
+            g.fail("position", "missing: a goal needs a position, a seat or a box")
+        gpos, gh, gpose = g.vector("position", 2), None, None
+    if "pose" in g:
+        gpose = g.string("pose", nonempty=True)
+    if "heading" in g:
+        gh = math.radians(g.number("heading", unit="degrees"))
+    tw = None
+    if "time" in g:
+        tw = g.interval("time", scalar=True)
+        if tw[0] < 0 or tw[1] > duration:
+            g.fail("time", f"window [{tw[0]}, {tw[1]}] outside the scenario's 0..{duration} s")
+        if math.floor(tw[1] * 30 + 1e-6) < math.ceil(tw[0] * 30 - 1e-6):
+            g.fail("time", f"window [{tw[0]}, {tw[1]}] is too short: it holds no 1/30 s frame")
+    after = None
+    if "after" in g:
+        a = g.table("after", f"{where} after", _AFTER)
+        after = {"character": a.string("character", nonempty=True), "goal": a.integer("goal", 0, 0, MAX_GOALS - 1),
+                 "within": a.interval("within", (0.0, 1.0), lo=-MAX_DURATION, hi=MAX_DURATION)}
+    return GoalSpec(gpos, gh, gpose, tw, after, marker, kind)
+
+
+def _check_names(path, chars, tilings, flocks) -> None:
+    """Two characters (or two flocks) whose USD prim names would be the same: an error now,
+    before planning, rather than a bake that cannot write them."""
+    for what, names in (("character", [(f"character {c.name!r}", c.name) for c in chars]
+                         + [(f"tiling {t.name!r} character {t.name}_{ti}_{k}", f"{t.name}_{ti}_{k}")
+                            for t in tilings for ti, team in enumerate(t.teams) for k in range(team["count"])]),
+                        ("flock", [(f"flock {f.name!r} (flock {f.name}_{k:02d})", f"{f.name}_{k:02d}")
+                                   for f in flocks for k in range(len(f.positions or [0] * f.count))])):
+        seen = {}
+        for label, name in names:
+            pn = prim_name(name)
+            if pn in seen:
+                raise ScenarioError(f"{path}: {seen[pn]} and {label} both become the USD {what} prim {pn!r}; "
+                                    "rename one")
+            seen[pn] = label
 
 
 def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=None) -> Scenario:
-    unknown = set(data) - _TOP
-    if unknown:
-        raise ScenarioError(f"{path}: unknown top-level keys {sorted(unknown)}")
-    duration = float(data.get("duration", 20.0))
-    if not duration > 0:
-        raise ScenarioError(f"{path}: duration must be positive")
-    syn = dict(data.get("synthesis", {}))
-    eps = tuple(float(x) for x in syn.get("epsilon", (0.02, 2.0, 1.0 / 15.0)))
-    if len(eps) != 3 or min(eps) <= 0:
-        raise ScenarioError(f"{path}: synthesis.epsilon must be three positive numbers")
-    if not isinstance(syn.get("start_still", False), bool):
-        raise ScenarioError(f"{path}: synthesis.start_still must be true or false")
-    ap = syn.get("approach_point", 0.0)
-    if isinstance(ap, bool) or not isinstance(ap, (int, float)) or not 0.0 <= float(ap) <= 5.0:
-        raise ScenarioError(f"{path}: synthesis.approach_point must be a distance in metres from 0 to 5")
+    """Validate a parsed scenario (see the module docstring) and build the :class:`Scenario`.
+
+    Every key is checked against the schema before anything else: unknown keys (in any table),
+    wrong types, numbers that are not finite or out of range, and inputs over the limits of
+    :mod:`runtime.limits` raise :class:`ScenarioError` naming the file, the table and the key."""
+    top = Table(path, "top level", data, _TOP, ScenarioError)
+    name = top.string("name", Path(path).parent.name)
+    world = top.string("world", nonempty=True) if "world" in top else None
+    library = top.string("library", "default", nonempty=True)
+    duration = top.number("duration", 20.0, lo=0.0, hi=MAX_DURATION, lo_open=True, unit="s")
+    seed = top.integer("seed", 0, 0, MAX_SEED)
+    top.string("description", "")
+    syn, eps = _synthesis(top)
     markers = env.markers if env is not None else {}
-    chars = []
-    names = set()
-    raw_chars = data.get("character", [])
-    raw_flocks = data.get("flock", [])
-    raw_tilings = data.get("tiling", [])
-    if not isinstance(raw_chars, list) or not isinstance(raw_flocks, list) or not isinstance(raw_tilings, list) \
-            or not (raw_chars or raw_flocks or raw_tilings):
+    raw_chars = top.tables("character", MAX_CHARACTERS)
+    raw_flocks = top.tables("flock", 100)
+    raw_tilings = top.tables("tiling", 100)
+    if not (raw_chars or raw_flocks or raw_tilings):
         raise ScenarioError(f"{path}: no [[character]], [[flock]] or [[tiling]] entries")
     tilings = [_tiling_spec(path, ti, rt, markers) for ti, rt in enumerate(raw_tilings)]
-    flocks = []
-    for fi, rf in enumerate(raw_flocks):
-        fname = str(rf.get("name", f"flock{fi}"))
-        bad = set(rf) - _FLOCK
-        if bad:
-            raise ScenarioError(f"{path}: flock {fname!r}: unknown keys {sorted(bad)}")
-        if "ddg" not in rf:
-            raise ScenarioError(f"{path}: flock {fname!r}: needs ddg (a pack path or {{dim, agents, seconds, seed}})")
-        region = rf.get("region")
-        if region is not None:
-            m = markers.get(region)
-            if m is None or m.role != "region" or m.polygon is None:
-                raise ScenarioError(f"{path}: flock {fname!r}: no region marker {region!r} with an outline in the world")
-        alt = tuple(float(a) for a in rf["altitude"]) if "altitude" in rf else None
-        flocks.append(FlockSpec(fname, rf["ddg"], int(rf.get("count", 1)), region, alt, rf.get("positions"),
-                                int(rf.get("seed", fi))))
+    flocks = [_flock_spec(path, fi, rf, markers) for fi, rf in enumerate(raw_flocks)]
+    chars = []
+    names = set()
     for ci, rc in enumerate(raw_chars):
-        name = str(rc.get("name", f"c{ci:02d}"))
-        where = f"{path}: character {name!r}"
-        bad = set(rc) - _CHAR
-        if bad:
-            raise ScenarioError(f"{where}: unknown keys {sorted(bad)}")
-        if name in names:
-            raise ScenarioError(f"{where}: duplicate character name")
-        names.add(name)
-        st = dict(rc.get("start", {}))
-        bad = set(st) - _START
-        if bad:
-            raise ScenarioError(f"{where} start: unknown keys {sorted(bad)}")
-        start_marker = None
-        if "seat" in st:
-            m = markers.get(st["seat"])
-            if m is None or m.role != "seat":
-                raise ScenarioError(f"{where} start: no seat marker {st['seat']!r} in the world")
-            pos, heading, pose, start_marker = m.position.copy(), m.heading, "sit", st["seat"]
-        else:
-            if "position" not in st:
-                raise ScenarioError(f"{where} start: needs a position or a seat")
-            pos = _vec2(st["position"], f"{where} start")
-            heading = math.radians(float(st.get("heading", 0.0)))
-            pose = str(st.get("pose", "stand"))
-        spec = CharacterSpec(name, pos, heading, pose, start_marker=start_marker)
-        goals = rc.get("goal", [])
-        for gi, rg in enumerate(goals):
-            gw = f"{where} goal {gi}"
-            bad = set(rg) - _GOAL
-            if bad:
-                raise ScenarioError(f"{gw}: unknown keys {sorted(bad)}")
-            kind, marker = "position", None
-            if "seat" in rg:
-                m = markers.get(rg["seat"])
-                if m is None or m.role != "seat":
-                    raise ScenarioError(f"{gw}: no seat marker {rg['seat']!r} in the world")
-                gpos, gh, gpose, kind, marker = m.position.copy(), m.heading, "sit", "seat", rg["seat"]
-            elif "box" in rg:
-                m = markers.get(rg["box"])
-                if m is None or m.role != "box":
-                    raise ScenarioError(f"{gw}: no box marker {rg['box']!r} in the world")
-                # stand in front of the box, facing it: the box's +Z points at the character
-                fwd = np.array([math.sin(m.heading), math.cos(m.heading)])
-                gpos = m.position + BOX_REACH * fwd
-                gh = m.heading + math.pi
-                gpose, kind, marker = "carry", "box", rg["box"]
-            else:
-                if "position" not in rg:
-                    raise ScenarioError(f"{gw}: needs a position, a seat or a box")
-                gpos = _vec2(rg["position"], gw)
-                gh = math.radians(float(rg["heading"])) if "heading" in rg else None
-                gpose = None
-            if "pose" in rg:
-                gpose = str(rg["pose"])
-            if "heading" in rg and kind != "position":
-                gh = math.radians(float(rg["heading"]))
-            tw = None
-            if "time" in rg:
-                t = rg["time"]
-                try:
-                    tw = (float(t[0]), float(t[1])) if isinstance(t, (list, tuple)) else (float(t), float(t))
-                except (TypeError, ValueError, IndexError):
-                    raise ScenarioError(f"{gw}: time must be [t_a, t_b] seconds") from None
-                if tw[1] < tw[0]:
-                    raise ScenarioError(f"{gw}: time window [{tw[0]}, {tw[1]}] is empty")
-                if tw[0] < 0 or tw[1] > duration:
-                    raise ScenarioError(f"{gw}: time window [{tw[0]}, {tw[1]}] outside the scenario's 0..{duration} s")
-                if math.floor(tw[1] * 30 + 1e-6) < math.ceil(tw[0] * 30 - 1e-6):
-                    raise ScenarioError(f"{gw}: time window [{tw[0]}, {tw[1]}] is too short: it holds no 1/30 s frame")
-            after = None
-            if "after" in rg:
-                a = dict(rg["after"])
-                if "character" not in a:
-                    raise ScenarioError(f"{gw}: after needs a character")
-                w = a.get("within", (0.0, 1.0))
-                after = {"character": str(a["character"]), "goal": int(a.get("goal", 0)),
-                         "within": (float(w[0]), float(w[1]))}
-                if after["within"][1] < after["within"][0]:
-                    raise ScenarioError(f"{gw}: after.within is an empty interval")
-            spec.goals.append(GoalSpec(gpos, gh, gpose, tw, after, marker, kind))
+        t = Table(path, f"character {ci}", rc, _CHAR, ScenarioError)
+        cname = t.string("name", f"c{ci:02d}", nonempty=True)
+        t.where = f"character {cname!r}"
+        if cname in names:
+            t.fail("name", "duplicate character name")
+        names.add(cname)
+        pos, heading, pose, start_marker = _start(t, cname, markers)
+        spec = CharacterSpec(cname, pos, heading, pose, start_marker=start_marker)
+        for gi, rg in enumerate(t.tables("goal", MAX_GOALS)):
+            spec.goals.append(_goal(path, f"character {cname!r} goal {gi}", rg, markers, duration))
         chars.append(spec)
-    sc = Scenario(str(data.get("name", Path(path).parent.name)), path, data.get("world"),
-                  str(data.get("library", "default")), duration, int(data.get("seed", 0)), eps, chars, syn, flocks,
-                  tilings)
+    n = len(chars) + sum(team["count"] for tl in tilings for team in tl.teams)
+    if n > MAX_CHARACTERS:
+        raise ScenarioError(f"{path}: {n} characters (crowd and tiled): more than the limit of {MAX_CHARACTERS}")
+    if n * duration > MAX_CHARACTER_SECONDS:
+        raise ScenarioError(f"{path}: duration: {n} characters x {duration:g} s is more than the limit of "
+                            f"{MAX_CHARACTER_SECONDS:g} character-seconds (a bake holds about 4.5 KB per "
+                            "character and frame); shorten the scenario or split the crowd")
+    _check_names(path, chars, tilings, flocks)
+    sc = Scenario(name, path, world, library, duration, seed, eps, chars, syn, flocks, tilings)
     validate(sc, env, node_labels)
     return sc
 

@@ -31,6 +31,7 @@ from ..crowd.planner import (Config, CrowdPolicy, Goal, MotionCache, MotionLibra
 from ..crowd.scenario import BOX_REACH
 from ..crowd.spacetime import SpaceTimeIndex
 from ..crowd.tracks import Track
+from . import args
 from .occupancy import Occupancy, PlanningView
 from .planning import PlanningQueue
 from .playback import Playback
@@ -148,6 +149,13 @@ class CrowdSystem:
         return still if len(still) else nodes
 
     def spawn(self, name: str, position, heading: float, pose: str) -> int:
+        """Add a character (arguments checked first: TypeError / ValueError, see
+        :mod:`runtime.world.args`); if anything fails, nothing of it stays registered."""
+        name = args.character_name(name)
+        position = args.point(position)
+        heading = args.heading(heading)
+        if not isinstance(pose, str):
+            raise TypeError(f"pose must be a string, not {type(pose).__name__}")
         if name in self.chars:
             raise ValueError(f"a character named {name!r} already exists")
         if len(self.graph.nodes_with_label(pose)) == 0:
@@ -162,11 +170,17 @@ class CrowdSystem:
         c = Character(name, s)
         self.chars[name] = c
         self.slots[s] = c
-        pb.place(s, self.world.frame, position, heading, node)
-        # characters spawned together get idle futures of different lengths, so that their
-        # refills spread over many ticks
-        loop = pb.loop_len(node) or 1
-        self.append_idle(c, 3.0 + (s % 7) * loop / self.world.fps)
+        try:
+            pb.place(s, self.world.frame, position, heading, node)
+            # characters spawned together get idle futures of different lengths, so that their
+            # refills spread over many ticks
+            loop = pb.loop_len(node) or 1
+            self.append_idle(c, 3.0 + (s % 7) * loop / self.world.fps)
+        except BaseException:       # transactional: no half-registered character
+            del self.chars[name]
+            self.slots[s] = None
+            pb.release(s)
+            raise
         return s
 
     def remove(self, name: str) -> None:
@@ -204,6 +218,10 @@ class CrowdSystem:
             self.queue.push(c)
 
     def _pending(self, c: Character, kind, pos, heading, arrive, marker) -> PendingGoal:
+        if pos is not None:            # commands queued without the World's checks are checked here
+            pos = args.point(pos)
+        heading = args.heading(heading, optional=True)
+        arrive = args.window(arrive)
         pb = self.playback
         if kind == "go_to":
             # arrive standing where the character can wait still (not on a walking hub, whose

@@ -15,6 +15,16 @@ The tick::
 A *system* is any object with ``tick(world)`` (before the clock advances) and, optionally,
 ``after_tick(world)`` (after it). The World also implements the viewer's scene protocol
 (:mod:`runtime.view`).
+
+Errors: every public method checks its arguments before it changes anything
+(:mod:`runtime.world.args`), so a call that raises leaves the World as it was. A wrong type
+raises ``TypeError``; a value that is not finite, out of range (coordinates within 1e6 m, times
+from 0 to 1e7 s), of the wrong shape, a reversed window, a name in use or an unknown pose
+``ValueError``; a method that needs a character now (``remove``, ``state``, ``position``,
+``slot``) raises ``KeyError`` for an unknown name. Commands are queued: what can only be known
+at the next tick (the character was removed, the world has no such seat or box, no plan was
+found) becomes a ``warning`` event instead. ``step`` never raises (its built-in systems never do;
+an error of a system added with :meth:`add_system` is the caller's and propagates).
 """
 from __future__ import annotations
 
@@ -28,6 +38,7 @@ from ..crowd.tracks import evaluate_poses
 from ..motion.fk import forward_kinematics
 from ..motion.graph import MotionGraph
 from ..pose import PoseBatch, PoseState
+from . import args
 from .crowd import CharacterState, CrowdSystem
 from .events import EventBus
 from .flocks import FlockHost
@@ -59,6 +70,16 @@ class World:
                  budget_ms: float = 4.0, seed: int = 0, params: SearchParams | None = None,
                  policy: CrowdPolicy | None = None, capacity: int = 64):
         from ..library import load_library
+        for what, v, lo, hi in (("dt", dt, 1e-4, 1e4), ("budget_ms", budget_ms, 0.0, args.MAX_TIME * 1e3)):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise TypeError(f"{what} must be a number, not {type(v).__name__}")
+            if not (np.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"{what} must be finite, from {lo:g} to {hi:g}, got {v}")
+        for what, v, lo in (("seed", seed, 0), ("capacity", capacity, 1)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{what} must be an integer, not {type(v).__name__}")
+            if v < lo:
+                raise ValueError(f"{what} must be at least {lo}, got {v}")
         if world is not None and not hasattr(world, "polygons"):
             raise TypeError(f"world must be an Environment or None, not {type(world).__name__}: read a stage "
                             f"with usd_io.world.read_world(path)")
@@ -122,8 +143,14 @@ class World:
 
     def step(self, real_dt: float) -> int:
         """Advance by ``real_dt`` seconds of real time; returns the ticks run (at most
-        ``MAX_TICKS_PER_STEP``, so a stall never snowballs)."""
-        n = self.clock.advance(real_dt)
+        ``MAX_TICKS_PER_STEP``, so a stall never snowballs). Never raises: a ``real_dt`` that is
+        not a finite, non-negative number runs no tick and emits a ``warning`` event."""
+        try:
+            dt = args.seconds(real_dt, "real_dt")
+        except (TypeError, ValueError) as e:
+            self.emit("warning", "", message=f"step: {e}; no tick run")
+            return 0
+        n = self.clock.advance(dt)
         for _ in range(n):
             self.tick()
         return n
@@ -135,7 +162,7 @@ class World:
 
     @budget.setter
     def budget(self, seconds: float) -> None:
-        self.crowd.queue.budget = float(seconds)
+        self.crowd.queue.budget = args.seconds(seconds, "budget")
 
     @property
     def time(self) -> float:
@@ -157,12 +184,18 @@ class World:
         ``heading`` (radians, 0 = +Z). Returns its slot."""
         return self.crowd.spawn(name, position, heading, pose)
 
+    def _known(self, name) -> str:
+        """``name`` if it is a character now, else KeyError naming it."""
+        if args.character_name(name) not in self.crowd.chars:
+            raise KeyError(f"no character named {name!r}")
+        return name
+
     def remove(self, name: str) -> None:
-        self.crowd.remove(name)
+        self.crowd.remove(self._known(name))
 
     def slot(self, name: str) -> int:
         """The character's row in the playback buffers (:attr:`playback`)."""
-        return self.crowd.chars[name].slot
+        return self.crowd.chars[self._known(name)].slot
 
     @property
     def playback(self):
@@ -170,7 +203,7 @@ class World:
         return self.crowd.playback
 
     def state(self, name: str) -> CharacterState:
-        return self.crowd.chars[name].state
+        return self.crowd.chars[self._known(name)].state
 
     def position(self, name: str) -> np.ndarray:
         """(x, z, heading) of the character now."""
@@ -181,32 +214,45 @@ class World:
         """Walk to ``position`` (x, z), optionally facing ``heading`` (radians) and arriving in
         the absolute time window ``arrive = (t0, t1)`` seconds. A new go_to replaces goals that
         are still waiting for the planner unless ``queue`` is True (then it comes after them)."""
-        self.crowd.commands.append(("go_to", name, np.asarray(position, float), heading, arrive, queue))
+        cmd = ("go_to", args.character_name(name), args.point(position), args.heading(heading, optional=True),
+               args.window(arrive), queue)
+        if not isinstance(queue, bool):
+            raise TypeError(f"queue must be True or False, not {type(queue).__name__}")
+        self.crowd.commands.append(cmd)
 
     def sit(self, name, seat):
         """Sit down on the seat marker ``seat`` (a prim path of the world stage)."""
-        self.crowd.commands.append(("sit", name, None, None, None, seat))
+        self.crowd.commands.append(("sit", args.character_name(name), None, None, None, args.marker_path(seat, "seat")))
 
     def stand(self, name):
-        self.crowd.commands.append(("stand", name, None, None, None, None))
+        self.crowd.commands.append(("stand", args.character_name(name), None, None, None, None))
 
     def pick_up(self, name, box):
         """Walk to the box marker ``box`` and pick it up."""
-        self.crowd.commands.append(("pick_up", name, None, None, None, box))
+        self.crowd.commands.append(("pick_up", args.character_name(name), None, None, None,
+                                    args.marker_path(box, "box")))
 
     def put_down(self, name, position, heading=None):
-        self.crowd.commands.append(("put_down", name, np.asarray(position, float), heading, None, None))
+        self.crowd.commands.append(("put_down", args.character_name(name), args.point(position),
+                                    args.heading(heading, optional=True), None, None))
 
     def meet(self, names, position, time_s):
-        """Characters arrive together at ``time_s`` around ``position``, facing its centre."""
+        """Characters arrive together at ``time_s`` around ``position``, facing its centre
+        (``names``: a non-empty list of distinct names)."""
         import math
+        names = args.names(names)
+        position = args.point(position)
+        time_s = args.seconds(time_s, "time_s")
+        arrive = args.window((time_s, time_s + 0.5), "time_s")
         n = len(names)
         r = 0.0 if n == 1 else max(0.55, 0.75 / (2 * math.sin(math.pi / n)))
+        cmds = []
         for k, name in enumerate(names):
             a = 2 * math.pi * k / n
-            p = np.asarray(position, float) + r * np.array([math.sin(a), math.cos(a)])
+            p = args.point(np.asarray(position, float) + r * np.array([math.sin(a), math.cos(a)]))
             h = math.atan2(position[0] - p[0], position[1] - p[1]) if n > 1 else None
-            self.go_to(name, p, heading=h, arrive=(time_s, time_s + 0.5))
+            cmds.append(("go_to", name, p, h, arrive, False))
+        self.crowd.commands.extend(cmds)      # all or none
 
     def pose_nodes(self, label: str) -> np.ndarray:
         """Nodes of pose ``label`` where a character can wait standing still."""
@@ -221,7 +267,7 @@ class World:
         """Joint world positions (N, J, 3) of all characters (slot order = :attr:`names`),
         interpolated between the previous and the current tick by ``alpha`` (default: the
         clock's fraction); exact rotations (slerp + forward kinematics, float64)."""
-        alpha = self.alpha if alpha is None else alpha
+        alpha = self.alpha if alpha is None else args.alpha(alpha)
         pb = self.playback
         s, a, b, t, root = pb.gather(0)
         if len(s) == 0:
@@ -304,6 +350,7 @@ class World:
         """Start flocks walking ``ddg`` (a :class:`runtime.flock.DDG` or a pack path): their
         centroids at ``positions`` (k, 3), optionally each constrained to a region. All flocks
         of one DDG advance together in one vectorized system. Returns (system index, flock rows)."""
+        positions, headings = args.flock_starts(positions, headings, regions, seed)
         return self.flock_host.add(ddg, positions, headings, regions, seed)
 
     def add_tiling(self, zone):
