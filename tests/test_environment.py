@@ -292,3 +292,21 @@ def test_segment_segment_distance_against_sampling():
     assert (d == 0).sum() > 20  # crossing pairs exist and give exactly 0
     # point-segment distance: projection inside, and clamped to the ends
     np.testing.assert_allclose(point_segment_distance([[0, 1], [3, 0], [-1, -1]], [0, 0], [2, 0]), [1, 1, math.sqrt(2)])
+
+
+def test_the_distance_field_outside_its_grid_is_a_lower_bound_beyond_the_margin():
+    """Outside the grid (obstacles grown by the margin) the field returns at least the margin and
+    never more than the true distance, so any clearance test below the margin decides as the
+    exact distance does."""
+    from runtime.crowd.environment import Environment
+    env = Environment([np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]])], np.array([[5.0, 5.0, 0.5]]))
+    sdf = env.sdf(0.05, 2.0)
+    p = np.random.default_rng(0).uniform(-20, 25, (20000, 2))
+    hi = sdf.origin + sdf.resolution * (np.array(sdf.shape) - 1)
+    outside = np.any((p < sdf.origin) | (p > hi), axis=1)
+    assert outside.sum() > 10000 and (~outside).sum() > 1000
+    got, exact = sdf.sample(p), env.distance(p)
+    assert np.all(got[outside] >= 2.0) and np.all(got[outside] <= exact[outside] + 1e-9)
+    assert np.all(np.abs(got[~outside] - exact[~outside]) <= sdf.max_error + 1e-9)
+    for r in (0.3, 1.0, 1.99):
+        assert np.array_equal(got[outside] < r, exact[outside] < r)

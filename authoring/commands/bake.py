@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from authoring.commands.args import integer, limits
+from runtime.crowd.goals import LADDER_KINDS, ladder_summary
 from runtime.limits import MAX_CHARACTERS, MAX_SEED
 
 MAX_WORKERS = 64
@@ -151,6 +152,13 @@ def _print_summary(sc, report, tiling_report, flock_report, n, t_plan, t_write, 
     print(f"checker: adjustment within eps for {s['characters_within_eps']}/{n} characters "
           f"(max {s['max_adjust_m_s'] * 100:.2f} cm/s, {s['max_adjust_deg_s']:.2f} deg/s, {s['max_adjust_s_s']:.4f} s/s); "
           f"{s['character_overlap_pairs']} overlapping pairs, {s['obstacle_overlap_characters']} characters in obstacles")
+    lad = report.get("ladder", {}).get("summary")
+    if lad and n:
+        parts = [f"{lad[k]} {k}" for k in LADDER_KINDS if lad[k]]
+        if parts:
+            print(f"planner: {lad['clean']}/{n} characters meet every constraint; " + ", ".join(parts)
+                  + (f" (latest {lad['max_late_s']:.2f} s)" if lad["late"] else "")
+                  + (f" (eps x {lad['max_eps_factor']:.2f})" if lad["relaxed"] else ""))
     print(f"checker: {'PASSED' if s['passed'] else 'FAILED'}" + (f"  ({len(warnings)} planner warnings)" if warnings else ""))
 
 
@@ -227,6 +235,9 @@ def run(args) -> int:
         report["timing"] = {"plan_seconds": t_plan, "write_seconds": t_write,
                             "per_character": {c.name: c.seconds for c in result.characters}}
         report["warnings"] = warnings
+        report["ladder"] = {"summary": ladder_summary(result.characters),
+                            "characters": {c.name: [st.to_dict() for st in c.ladder]
+                                           for c in result.characters if c.ladder}}
         if passed:
             pause_point("replacing")
             commit_temp(tmp, out)

@@ -36,7 +36,7 @@ from .planner.route import timed_route
 from .scenario import ScenarioError
 from .tracks import Track, concat_tracks
 
-__all__ = ["LadderStep", "GoalsPlan", "SegmentLadder", "with_prefix", "plan_goals", "clear_after", "collides_early", "lane_clear_delay",
+__all__ = ["LadderStep", "GoalsPlan", "SegmentLadder", "with_prefix", "plan_goals", "ladder_summary", "LADDER_KINDS", "clear_after", "collides_early", "lane_clear_delay",
            "LATE_SHIFTS", "RELAXED_EPS", "LANE_RADIUS"]
 
 LATE_SHIFTS = (3.0, 8.0, 15.0)   # s the window is moved later, in turn, for a late arrival
@@ -71,6 +71,26 @@ class LadderStep:
     def to_dict(self) -> dict:
         return {"goal": self.goal, "kind": self.kind, "delay_s": round(float(self.delay_s), 3),
                 "eps_factor": round(float(self.eps_factor), 3), "reason": self.reason}
+
+
+LADDER_KINDS = ("rerouted", "later arrival", "later departure", "late", "relaxed", "waiting")
+
+
+def ladder_summary(characters) -> dict:
+    """Per ladder kind, the characters whose plan used it (``characters``: objects with a
+    ``ladder`` list of :class:`LadderStep`), the worst delay of late arrivals, the largest eps
+    factor of relaxed ones, and the characters meeting every constraint ("clean")."""
+    out = {k: 0 for k in LADDER_KINDS}
+    late, relaxed, clean = 0.0, 1.0, 0
+    for c in characters:
+        kinds = {st.kind for st in c.ladder}
+        for k in kinds:
+            out[k] += 1
+        late = max([late] + [st.delay_s for st in c.ladder if st.kind == "late"])
+        relaxed = max([relaxed] + [st.eps_factor for st in c.ladder if st.kind == "relaxed"])
+        clean += all(st.keeps_constraints for st in c.ladder)
+    out.update(max_late_s=round(late, 3), max_eps_factor=round(relaxed, 3), clean=clean)
+    return out
 
 
 @dataclass
@@ -189,7 +209,7 @@ class SegmentLadder:
         """Generator (yields planner step kinds); returns (idle prefix Track or None,
         SegmentResult, LadderStep or None) -- the result is clean or within the rung reported,
         and collision-free -- or None when every rung failed."""
-        ctx, planner = self.ctx, self.planner
+        ctx = self.ctx
         if ctx.policy.space_time_seeds:
             out = yield from self._rerouted(cfg, goal, None, n_max=self.n_first, only_if_blocked=True)
             if out is not None:
@@ -281,14 +301,13 @@ class SegmentLadder:
         radius = LANE_RADIUS + ctx.params.margin
         if only_if_blocked and not _route_blocked(index, base, cfg.frame, ctx.fps, radius):
             return None
-        hold = None
-        if self.planner.hold is not None:
-            gx = np.asarray(goal.position, float)
+        gx = np.asarray(goal.position, float)
 
-            def hold(frame):
-                f = np.arange(frame, ctx.n_total, 5)
-                return len(f) == 0 or index.first_overlap(f, np.broadcast_to(gx, (len(f), 2)),
-                                                          np.full(len(f), radius)) < 0
+        def stays_clear(frame):
+            f = np.arange(frame, ctx.n_total, 5)
+            return len(f) == 0 or index.first_overlap(f, np.broadcast_to(gx, (len(f), 2)),
+                                                      np.full(len(f), radius)) < 0
+        hold = stays_clear if self.planner.hold is not None else None
         yield Step.WAYPOINTS
         route = timed_route(base, cfg.frame, index.at_frame, ctx.static, radius, ctx.n_total - 1, hold)
         if route is None:
