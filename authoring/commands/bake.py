@@ -20,6 +20,27 @@ def configure(p):
                         "beside --out (for very large crowds)")
     p.add_argument("--workers", type=int, default=None, metavar="W",
                    help="processes writing value-clip layers (default 2)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="write the value-clip layers on the workers of the Dask cluster at ADDRESS "
+                        "(e.g. tcp://host:8786; needs --clips-per; the layers come back to this process)")
+
+
+def bake_sample(sample, out, *, quiet: bool = True, **options) -> int:
+    """``crowdweave bake SAMPLE --out OUT`` as a function: the same code path as the command
+    (:func:`run`), so the files are the same bytes. ``options`` are the command's other options
+    by their argument names (``report``, ``seed``, ``clips_per``, ``workers``, ...; the rest keep
+    their defaults). Prints what the command prints; returns its exit code (0: the checker
+    passed, 1: it failed); bad input raises :class:`authoring.commands.CLIError`."""
+    import argparse
+    parser = argparse.ArgumentParser(prog="crowdweave bake")
+    configure(parser)
+    args = parser.parse_args([str(sample), "--out", str(out)])
+    for key, value in options.items():
+        if not hasattr(args, key):
+            raise TypeError(f"bake_sample: unknown option {key!r}")
+        setattr(args, key, value)
+    args.quiet = quiet
+    return run(args)
 
 
 def load_sample(sample, log=print, progress=True):
@@ -133,6 +154,14 @@ def run(args) -> int:
         raise CLIError(f"--clips-per must be at least 1, got {args.clips_per}")
     if args.workers is not None and args.workers < 1:
         raise CLIError(f"--workers must be at least 1, got {args.workers}")
+    if args.scheduler and args.clips_per is None:
+        raise CLIError("--scheduler writes value-clip layers on a Dask cluster: give --clips-per N too")
+    if args.scheduler:                  # before planning, which can take long
+        from authoring.batch.cluster import ClusterError, check_scheduler
+        try:
+            check_scheduler(args.scheduler)
+        except ClusterError as e:
+            raise CLIError(str(e)) from None
     try:
         sc, graph, env, roadmap = load_sample(args.sample, progress=not quiet)
     except (ScenarioError, AssetError, ValueError, FileNotFoundError) as e:
@@ -159,6 +188,7 @@ def run(args) -> int:
             world_path = None          # a referenced stage must share the bake's metres / Y up
     stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
                               out_path=out, clips_per=args.clips_per, workers=args.workers,
+                              scheduler=args.scheduler,
                               metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
     for z in zones:   # tiled characters: SkelRoots like the crowd's, posed from the zone's patches
         build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames)

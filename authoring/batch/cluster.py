@@ -1,0 +1,89 @@
+"""Dask clusters for the batch and the distributed builds: a client of the scheduler at an
+address, or of a LocalCluster started (and closed) for the run.
+
+An unreachable or malformed address is a :class:`ClusterError` whose one-line message names
+the address. A LocalCluster has one single-threaded worker process per core: the planner and the
+USD writers hold the GIL, so processes, not threads, use the cores.
+"""
+from __future__ import annotations
+
+import logging
+import os
+from contextlib import contextmanager
+
+__all__ = ["ClusterError", "connect", "check_scheduler", "dask_client", "local_cluster", "DEFAULT_TIMEOUT"]
+
+DEFAULT_TIMEOUT = 10.0     # seconds to reach a scheduler
+
+
+class ClusterError(RuntimeError):
+    """A cluster that cannot be used; the message names the address."""
+
+
+@contextmanager
+def _quiet_logs(level=logging.CRITICAL):
+    """Dask logs its own retries while connecting; the caller reports the outcome in one line."""
+    names = ("distributed", "distributed.comm", "distributed.client", "distributed.core")
+    loggers = [logging.getLogger(n) for n in names]
+    before = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(level)
+    try:
+        yield
+    finally:
+        for lg, lv in zip(loggers, before):
+            lg.setLevel(lv)
+
+
+def connect(address: str, timeout: float = DEFAULT_TIMEOUT):
+    """A ``distributed.Client`` of the scheduler at ``address`` (``tcp://host:8786``, or
+    ``host:8786``); :class:`ClusterError` naming it when it cannot be reached in ``timeout`` s."""
+    from distributed import Client
+    with _quiet_logs():
+        try:
+            return Client(address, timeout=timeout, set_as_default=False)
+        except (OSError, ValueError, TypeError) as e:
+            reason = " ".join(str(e).split()) or type(e).__name__
+            raise ClusterError(f"cannot reach the Dask scheduler at {address}: {reason}") from None
+
+
+def check_scheduler(address: str, timeout: float = DEFAULT_TIMEOUT) -> int:
+    """Connect to ``address`` and close again; returns the number of workers it has."""
+    client = connect(address, timeout)
+    try:
+        return len(client.scheduler_info(n_workers=-1).get("workers", {}))
+    finally:
+        client.close()
+
+
+def local_cluster(workers: int | None = None):
+    """A LocalCluster of ``workers`` single-threaded worker processes (default: one per core),
+    without a dashboard, its own logs silenced (the batch reports every outcome itself)."""
+    from distributed import LocalCluster
+    n = int(workers or os.cpu_count() or 1)
+    return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                        silence_logs=logging.CRITICAL)
+
+
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None, timeout: float = DEFAULT_TIMEOUT):
+    """A client for one run: of the scheduler at ``scheduler``, or of a LocalCluster of
+    ``workers`` processes started here and closed at the end."""
+    from distributed import Client
+    if scheduler:
+        client = connect(scheduler, timeout)
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    cluster = local_cluster(workers)
+    try:
+        client = Client(cluster, set_as_default=False)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        with _quiet_logs():
+            cluster.close()
