@@ -11,7 +11,8 @@ import logging
 import os
 from contextlib import contextmanager
 
-__all__ = ["ClusterError", "connect", "check_scheduler", "dask_client", "local_cluster", "DEFAULT_TIMEOUT"]
+__all__ = ["ClusterError", "connect", "check_scheduler", "dask_client", "local_cluster", "block_mapper",
+           "DEFAULT_TIMEOUT"]
 
 DEFAULT_TIMEOUT = 10.0     # seconds to reach a scheduler
 
@@ -87,3 +88,29 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, timeou
     finally:
         with _quiet_logs():
             cluster.close()
+
+
+def _call_block(fn, block, shared):
+    data, *rest = shared
+    return fn(data, block[0], block[1], *rest)
+
+
+def block_mapper(client):
+    """A ``map_blocks(fn, blocks, data, *args)`` that runs ``fn(data, s, e, *args)`` for every
+    ``(s, e)`` of ``blocks`` on the workers of ``client`` and yields the results in order.
+    ``data`` and ``args`` go to every worker once (scattered), each block is one small task; a
+    block whose worker dies is computed again elsewhere."""
+    def map_blocks(fn, blocks, data, *args):
+        import uuid
+        run = uuid.uuid4().hex[:8]
+        [shared] = client.scatter([(data, *args)], broadcast=True, hash=False)
+        futures = [client.submit(_call_block, fn, b, shared, pure=False, key=f"crowdweave-block-{b[0]}-{run}")
+                   for b in blocks]
+        try:
+            for fut in futures:
+                yield fut.result()
+                fut.release()
+        finally:
+            client.cancel(futures)
+            shared.release()
+    return map_blocks

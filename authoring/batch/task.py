@@ -18,11 +18,12 @@ import json
 import os
 import shutil
 import socket
+import sys
 import threading
 import time
 import traceback
 import uuid
-from contextlib import redirect_stderr, redirect_stdout
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -96,6 +97,29 @@ def read_record(folder) -> dict | None:
         return None
 
 
+@contextmanager
+def _output_to(path: Path):
+    """Everything this process prints while the variant bakes -- Python's stdout and stderr and
+    the C++ libraries' messages (USD warnings) -- into ``path``."""
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(path, "a", encoding="utf-8", buffering=1) as log:
+            os.dup2(log.fileno(), 1)
+            os.dup2(log.fileno(), 2)
+            try:
+                with redirect_stdout(log), redirect_stderr(log):
+                    yield
+            finally:
+                log.flush()
+                os.dup2(saved[0], 1)
+                os.dup2(saved[1], 2)
+    finally:
+        for fd in saved:
+            os.close(fd)
+
+
 def _bake(tmp: Path) -> tuple[str, str]:
     """Bake the scenario in ``tmp``; returns (status, error)."""
     from authoring.commands import CLIError
@@ -125,8 +149,9 @@ def run_variant(job: VariantJob) -> dict:
     try:
         (tmp / SCENARIO).write_text(job.scenario_text, encoding="utf-8")
         t0 = time.perf_counter()
-        with _ONE_AT_A_TIME, open(tmp / LOG, "w", encoding="utf-8") as log, redirect_stdout(log), redirect_stderr(log):
+        with _ONE_AT_A_TIME, _output_to(tmp / LOG):
             status, error = _bake(tmp)
+        error = error.replace(str(tmp), str(final))      # name the files where they end up
         record = {"id": job.id, "index": job.index, "params": job.params, "status": status, "error": error,
                   "seconds": time.perf_counter() - t0, "worker": f"{socket.gethostname()}:{os.getpid()}",
                   **_report_figures(tmp / REPORT)}

@@ -1,8 +1,10 @@
 """``crowdweave author graph INPUTS... --out lib.cwpack``: build a snap-together motion graph."""
 from __future__ import annotations
 
+import os
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -15,6 +17,34 @@ def configure(p):
     p.add_argument("--threshold", type=float, default=None, help="hub match threshold, RMS cm (default 6)")
     p.add_argument("--no-usd", action="store_true", help="skip the USD preview")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="compute the frame-distance blocks on the Dask cluster at ADDRESS (e.g. tcp://host:8786); "
+                        "the pack is the same")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help=f"without --scheduler: worker processes of a local cluster (default: one per core for inputs "
+                        f"of at least {LOCAL_CLUSTER_FRAMES} frames, else 1 = this process)")
+
+
+# Inputs from this many frames on are built on a local cluster by default (docs/decisions.md).
+LOCAL_CLUSTER_FRAMES = 20000
+
+
+@contextmanager
+def _distance_blocks(scheduler, workers):
+    """``map_blocks`` for the build: on the cluster at ``scheduler``, on a local cluster of
+    ``workers`` processes, or None (this process)."""
+    if not scheduler and workers <= 1:
+        yield None
+        return
+    from authoring.batch.cluster import ClusterError, block_mapper, dask_client
+    from authoring.commands import CLIError
+    try:
+        with dask_client(scheduler, None if scheduler else workers) as client:
+            print(f"frame distances on {scheduler or 'a local cluster'} "
+                  f"({len(client.scheduler_info(n_workers=-1).get('workers', {}))} workers)")
+            yield block_mapper(client)
+    except ClusterError as e:
+        raise CLIError(str(e)) from None
 
 
 def run(args) -> int:
@@ -38,9 +68,13 @@ def run(args) -> int:
     params = GraphBuildParams(fps=args.fps)
     if args.threshold is not None:
         params.threshold_cm = args.threshold
+    if args.workers is not None and args.workers < 1:
+        raise CLIError(f"--workers must be at least 1, got {args.workers}")
+    workers = args.workers or ((os.cpu_count() or 1) if frames >= LOCAL_CLUSTER_FRAMES else 1)
     try:
-        with tqdm(total=frames, desc="frame distances", unit="frame", disable=quiet) as bar:
-            g = build_graph(takes, params, progress=bar.update, log=print)
+        with _distance_blocks(args.scheduler, workers) as map_blocks, \
+                tqdm(total=frames, desc="frame distances", unit="frame", disable=quiet) as bar:
+            g = build_graph(takes, params, progress=bar.update, log=print, map_blocks=map_blocks)
     except (ValueError, SkeletonMismatchError) as e:
         raise CLIError(str(e)) from None
     out = Path(args.out)
