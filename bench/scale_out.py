@@ -16,7 +16,8 @@ Tables, figures only (no asserts), all from one run:
 4. **Flock graph (DDG) build** of a 150 s 2D recording with the exact metric in 1 and 2 processes
    of its own pool (``DDGBuildParams.workers``): how much a second process gains there.
 5. **Planning regions** (the figures of ``docs/scale_out.md``): planning seconds of one region
-   (a ``grid`` crowd at 2.5 m, walking 8 m) against its number of characters; then two regions
+   (a ``crossing``: two columns 2 m apart swapping sides 10 m away) against its number of
+   characters (mean, min and max over seeds); then two regions
    planned independently side by side with a fence gap between them, and the checker's count of
    overlapping pairs across the fence (what border repair must fix).
 
@@ -64,6 +65,12 @@ def _close(cluster, client):
     cluster.close()
 
 
+def _header(title: str, hdr: str) -> None:
+    print(title)
+    print(hdr)
+    print("-" * len(hdr))
+
+
 def _digest(paths) -> str:
     h = hashlib.sha256()
     for p in paths:
@@ -94,10 +101,8 @@ def sweep_rows(tmp: Path, variants: int, characters: int):
 
 
 def print_sweep(rows, characters):
-    print(f"\n1. Sweep: {rows[0]['variants']} variants of {characters} characters (grid, 6 m, 12 s), LocalCluster")
-    hdr = f"{'workers':>7} {'start s':>8} {'sweep s':>8} {'total s':>8} {'plan s (sum)':>12} {'passed':>7} {'stages':>13}"
-    print(hdr)
-    print("-" * len(hdr))
+    _header(f"\n1. Sweep: {rows[0]['variants']} variants of {characters} characters (grid, 6 m, 12 s), LocalCluster",
+            f"{'workers':>7} {'start s':>8} {'sweep s':>8} {'total s':>8} {'plan s (sum)':>12} {'passed':>7} {'stages':>13}")
     for r in rows:
         print(f"{r['workers']:>7} {r['start']:>8.1f} {r['sweep']:>8.1f} {r['total']:>8.1f} {r['plan']:>12.1f} "
               f"{r['passed']:>3}/{r['variants']:<3} {r['digest']:>13}")
@@ -136,11 +141,9 @@ def graph_rows(tmp: Path, minutes: float):
 
 
 def print_graph(rows, frames, minutes, t_gen):
-    print(f"\n2. Motion-graph build: {minutes:g} min of generated capture ({frames} frames, generated in "
-          f"{t_gen:.1f} s), frame-distance blocks")
-    hdr = f"{'where':<18} {'start s':>8} {'build s':>8} {'nodes':>6} {'edges':>6} {'pack':>13}"
-    print(hdr)
-    print("-" * len(hdr))
+    _header(f"\n2. Motion-graph build: {minutes:g} min of generated capture ({frames} frames, generated in "
+            f"{t_gen:.1f} s), frame-distance blocks",
+            f"{'where':<18} {'start s':>8} {'build s':>8} {'nodes':>6} {'edges':>6} {'pack':>13}")
     for r in rows:
         where = "this process" if r["workers"] == 0 else f"{r['workers']} worker" + ("s" if r["workers"] > 1 else "")
         print(f"{where:<18} {r['start']:>8.1f} {r['build']:>8.1f} {r['nodes']:>6} {r['edges']:>6} {r['digest']:>13}")
@@ -206,11 +209,9 @@ def clip_rows(tmp: Path, characters: int, frames: int = 300, per: int = 100):
 
 
 def print_clips(rows, characters, size):
-    print(f"\n3. Value-clip layers: {characters} characters x 300 frames, 100 per layer ({size / 1e6:.0f} MB; "
-          "Dask rows: best of 2 after a warm-up round)")
-    hdr = f"{'writer':<28} {'write s':>8}"
-    print(hdr)
-    print("-" * len(hdr))
+    _header(f"\n3. Value-clip layers: {characters} characters x 300 frames, 100 per layer ({size / 1e6:.0f} MB; "
+            "the pool's row includes starting its processes, as in a bake; Dask rows: best of 2 after a "
+            "warm-up round)", f"{'writer':<28} {'write s':>8}")
     for name, _, t in rows:
         print(f"{name:<28} {t:>8.2f}")
 
@@ -228,20 +229,18 @@ def ddg_rows():
 
 
 def print_ddg(rows):
-    print("\n4. Flock graph (DDG) build, 150 s 2D recording of 20 agents")
-    hdr = f"{'processes':>9} {'build s':>8} {'exact metric s':>15} {'evaluations':>12}"
-    print(hdr)
-    print("-" * len(hdr))
+    _header("\n4. Flock graph (DDG) build, 150 s 2D recording of 20 agents",
+            f"{'processes':>9} {'build s':>8} {'exact metric s':>15} {'evaluations':>12}")
     for w, t, te, n in rows:
         print(f"{w:>9} {t:>8.1f} {te:>15.1f} {n:>12}")
     print(f"ratio 1 / 2 processes: {rows[0][1] / rows[1][1]:.2f}x")
 
 
 def _plan_region(graph, n, seed, z_offset=0.0, prefix=""):
-    from authoring.batch.generators import grid
+    from authoring.batch.generators import crossing
     from runtime.crowd.scenario import parse_scenario
     from runtime.crowd.scheduler import plan_scenario
-    data = grid(characters=n, spacing=2.5, distance=8.0, duration=14.0, seed=seed)
+    data = crossing(characters=n, spacing=2.0, distance=10.0, duration=20.0, seed=seed)
     for c in data["character"]:
         c["name"] = prefix + c["name"]
         c["start"]["position"][1] += z_offset
@@ -265,14 +264,11 @@ def region_rows(sizes, seeds=(0, 1)):
 
 def border_rows(n, gaps, seed=0):
     """Two regions of ``n`` characters planned apart, ``gap`` m between their facing rows."""
-    import math
-
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scenario import parse_scenario
     from runtime.library import load_library
     graph = load_library("default")
-    rows_per_col = max(1, int(math.ceil(math.sqrt(n))))
-    width = (rows_per_col - 1) * 2.5
+    width = ((n + 1) // 2 - 0.5) * 2.0         # a crossing's extent across the walk (spacing 2 m)
     out = []
     for gap in gaps:
         da, ra, ta = _plan_region(graph, n, seed, 0.0, "a_")
@@ -287,16 +283,13 @@ def border_rows(n, gaps, seed=0):
 
 
 def print_regions(rows, borders, n_border):
-    print("\n5. Planning regions: a grid crowd at 2.5 m walking 8 m (14 s), planned in this process")
-    hdr = f"{'characters':>10} {'plan s':>8} {'min':>6} {'max':>6} {'s / character':>13}"
-    print(hdr)
-    print("-" * len(hdr))
+    _header("\n5. Planning regions: two columns 2 m apart swapping sides 10 m away (20 s), planned in this process",
+            f"{'characters':>10} {'plan s':>8} {'min':>6} {'max':>6} {'s / character':>13}")
     for n, m, lo, hi in rows:
         print(f"{n:>10} {m:>8.2f} {lo:>6.2f} {hi:>6.2f} {m / n:>13.3f}")
-    print(f"\n   two regions of {n_border} characters planned independently, side by side")
-    hdr = f"{'fence gap m':>11} {'plan s':>7} {'overlapping pairs':>17} {'across the fence':>16} {'characters to repair':>20}"
-    print(hdr)
-    print("-" * len(hdr))
+    _header(f"\n   two regions of {n_border} characters planned independently, side by side",
+            f"{'fence gap m':>11} {'plan s':>7} {'overlapping pairs':>17} {'across the fence':>16} "
+            f"{'characters to repair':>20}")
     for gap, t, pairs, cross, names in borders:
         print(f"{gap:>11.1f} {t:>7.1f} {pairs:>17} {cross:>16} {names:>20}")
 
