@@ -175,6 +175,26 @@ def test_a_worker_killed_mid_sweep_loses_nothing(reference, sweep_file, cluster,
     client.wait_for_workers(2, timeout=60)             # the nanny restarted it
 
 
+def test_resume_bakes_only_the_missing_variants(reference, sweep_file, cluster, tmp_path, capsys):
+    """Into a directory that holds the batch: without --resume a one-line error naming the
+    variant's folder; with it, only the variant that was removed is baked again."""
+    import shutil
+    out_ref, _, ids = reference
+    out = tmp_path / "out"
+    shutil.copytree(out_ref, out)
+    shutil.rmtree(out / ids[2])
+    address = cluster[0].scheduler_address
+    base = ["batch", str(sweep_file), "--out", str(out), "--scheduler", address, "--quiet"]
+    assert main(base) == 2
+    assert capsys.readouterr().err.strip() == (f"crowdweave batch: error: {out / ids[0]}: already baked; "
+                                               "give --resume to keep the variants already baked")
+    assert main(base + ["--resume"]) == 0
+    assert "(3 kept from an earlier run)" in capsys.readouterr().out
+    attempts = {r.split(",")[0]: r.split(",")[-3] for r in (out / "summary.csv").read_text().splitlines()[1:]}
+    assert attempts == {v: ("1" if v == ids[2] else "0") for v in ids}
+    assert (out / ids[2] / "stage.usdc").read_bytes() == (out_ref / ids[2] / "stage.usdc").read_bytes()
+
+
 def test_a_failing_variant_is_reported_and_the_batch_goes_on(cluster, tmp_path, capsys):
     """A variant whose characters start inside an obstacle fails with the scenario's error
     (naming the variant's own file); the other is baked; the command exits 1."""

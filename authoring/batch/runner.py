@@ -54,10 +54,13 @@ def prepare_batch(sweep, out, resume: bool = False):
         if final.exists():
             same = (final / SCENARIO).is_file() and (final / SCENARIO).read_text(encoding="utf-8") == text
             rec = read_record(final) if same else None
-            if not resume or rec is None:
-                why = "give --resume to keep the variants already baked" if same and rec else \
-                    "it holds a different variant: use another --out"
-                raise BatchError(f"{final}: already exists; {why}")
+            if not same:
+                raise BatchError(f"{final}: already exists and holds another scenario; use another --out")
+            if rec is None:
+                raise BatchError(f"{final}: already exists without a finished variant (no variant.json); "
+                                 "remove it or use another --out")
+            if not resume:
+                raise BatchError(f"{final}: already baked; give --resume to keep the variants already baked")
             done[v.id] = rec
             continue
         jobs.append((v, VariantJob(str(out), v.id, v.index, v.params, text)))
