@@ -1,6 +1,8 @@
 """Scaling out on Dask: the same work on a LocalCluster of 1 and of 2 worker processes.
 
-Tables, figures only (no asserts), all from one run:
+Tables, figures only (no asserts), all from one run; ``load`` is the 1-minute load average when a
+row finished (on a machine shared with other jobs, a high one means the workers did not have the
+cores to themselves):
 
 1. **Sweep** (``crowdweave batch``'s ``run_batch``): ``--variants`` variants of the ``grid``
    generator (``--characters`` characters walking 6 m, 12 s baked, seeds 0..n-1) on 1 and on 2
@@ -95,6 +97,7 @@ def sweep_rows(tmp: Path, variants: int, characters: int):
             _close(cluster, client)
         stages = sorted(out.glob("*/stage.usdc"))
         rows.append({"workers": n, "start": t_start, "sweep": t_sweep, "total": t_start + t_sweep,
+                     "load": os.getloadavg()[0],
                      "passed": res.counts["passed"], "variants": len(res.variants), "digest": _digest(stages),
                      "plan": sum(r.get("plan_seconds") or 0 for r in res.records.values())})
     return rows
@@ -102,10 +105,11 @@ def sweep_rows(tmp: Path, variants: int, characters: int):
 
 def print_sweep(rows, characters):
     _header(f"\n1. Sweep: {rows[0]['variants']} variants of {characters} characters (grid, 6 m, 12 s), LocalCluster",
-            f"{'workers':>7} {'start s':>8} {'sweep s':>8} {'total s':>8} {'plan s (sum)':>12} {'passed':>7} {'stages':>13}")
+            f"{'workers':>7} {'start s':>8} {'sweep s':>8} {'total s':>8} {'plan s (sum)':>12} {'passed':>7} {'stages':>13}"
+            f" {'load':>5}")
     for r in rows:
         print(f"{r['workers']:>7} {r['start']:>8.1f} {r['sweep']:>8.1f} {r['total']:>8.1f} {r['plan']:>12.1f} "
-              f"{r['passed']:>3}/{r['variants']:<3} {r['digest']:>13}")
+              f"{r['passed']:>3}/{r['variants']:<3} {r['digest']:>13} {r['load']:>5.1f}")
     a, b = rows
     print(f"ratio 1 / 2 workers: sweep {a['sweep'] / b['sweep']:.2f}x, total {a['total'] / b['total']:.2f}x; "
           f"stages identical: {'yes' if a['digest'] == b['digest'] else 'NO'}")
@@ -136,6 +140,7 @@ def graph_rows(tmp: Path, minutes: float):
         pack = tmp / f"graph{n}.cwpack"
         g.save(pack)
         rows.append({"workers": n, "start": t_start, "build": t_build, "digest": _digest([pack]),
+                     "load": os.getloadavg()[0],
                      "nodes": g.num_nodes, "edges": g.num_edges})
     return rows, frames, t_gen
 
@@ -143,10 +148,11 @@ def graph_rows(tmp: Path, minutes: float):
 def print_graph(rows, frames, minutes, t_gen):
     _header(f"\n2. Motion-graph build: {minutes:g} min of generated capture ({frames} frames, generated in "
             f"{t_gen:.1f} s), frame-distance blocks",
-            f"{'where':<18} {'start s':>8} {'build s':>8} {'nodes':>6} {'edges':>6} {'pack':>13}")
+            f"{'where':<18} {'start s':>8} {'build s':>8} {'nodes':>6} {'edges':>6} {'pack':>13} {'load':>5}")
     for r in rows:
         where = "this process" if r["workers"] == 0 else f"{r['workers']} worker" + ("s" if r["workers"] > 1 else "")
-        print(f"{where:<18} {r['start']:>8.1f} {r['build']:>8.1f} {r['nodes']:>6} {r['edges']:>6} {r['digest']:>13}")
+        print(f"{where:<18} {r['start']:>8.1f} {r['build']:>8.1f} {r['nodes']:>6} {r['edges']:>6} {r['digest']:>13} "
+              f"{r['load']:>5.1f}")
     p, a, b = rows
     same = p["digest"] == a["digest"] == b["digest"]
     print(f"ratio 1 / 2 workers: {a['build'] / b['build']:.2f}x (with cluster start {(a['build'] + a['start']) / (b['build'] + b['start']):.2f}x); "
