@@ -35,6 +35,7 @@ import pickle
 import re
 import shutil
 import tempfile
+import uuid
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -165,8 +166,9 @@ class ClipLayers:
         except (OSError, ValueError, TypeError) as e:
             raise ConnectionError(f"cannot reach the Dask scheduler at {self.scheduler}: {e}") from None
         graph_data = self._client.scatter(graph, broadcast=False, hash=False)
+        run = uuid.uuid4().hex[:12]
         self._pending = [self._client.submit(chunk_layer_bytes, graph_data, self.fps, n, c, pure=False,
-                                             key=f"crowdweave-clip-{n}-{os.getpid()}-{id(self):x}")
+                                             key=f"crowdweave-clip-{n}-{run}")
                          for n, c in self.tasks]
 
     def _wait_dask(self) -> list:
@@ -249,8 +251,8 @@ def write_clip_layers(out_path, items, graph, fps: float, clips_per: int, worker
     """Start writing the clip layers of ``items`` ((SkelRoot path, Track), ...) for a stage that
     will be saved as ``out_path``: ``clips_per`` characters per layer, ``workers`` processes
     (default 2; 1 writes in this process), or the workers of the Dask cluster at ``scheduler``
-    (ConnectionError, naming the address, when it cannot be reached). Use as a context manager; :meth:`ClipLayers.wait`
-    finishes the directory (temporary name, then rename), :meth:`ClipLayers.author_clip_set` points a
+    (ConnectionError, naming the address, when it cannot be reached). Use as a context manager;
+    :meth:`ClipLayers.wait` finishes the directory (temporary name, then rename), :meth:`ClipLayers.author_clip_set` points a
     character at its layer. On an error the temporary directory is removed."""
     return ClipLayers(out_path, list(items), graph, fps, int(clips_per), workers, scheduler)
 
