@@ -148,12 +148,14 @@ def run_variant(job: VariantJob) -> dict:
     tmp.mkdir()
     try:
         (tmp / SCENARIO).write_text(job.scenario_text, encoding="utf-8")
+        started = time.time()
         t0 = time.perf_counter()
         with _ONE_AT_A_TIME, _output_to(tmp / LOG):
             status, error = _bake(tmp)
         error = error.replace(str(tmp), str(final))      # name the files where they end up
         record = {"id": job.id, "index": job.index, "params": job.params, "status": status, "error": error,
-                  "seconds": time.perf_counter() - t0, "worker": f"{socket.gethostname()}:{os.getpid()}",
+                  "seconds": time.perf_counter() - t0, "started": started,
+                  "worker": f"{socket.gethostname()}:{os.getpid()}",
                   **_report_figures(tmp / REPORT)}
         (tmp / RECORD).write_text(json.dumps(record, indent=1, default=float) + "\n", encoding="utf-8")
         _fsync_tree(tmp)
