@@ -15,6 +15,10 @@ __all__ = ["ClusterError", "connect", "check_scheduler", "dask_client", "local_c
            "DEFAULT_TIMEOUT"]
 
 DEFAULT_TIMEOUT = 10.0     # seconds to reach a scheduler
+# Dask starts worker processes with MALLOC_TRIM_THRESHOLD_=65536, so glibc hands freed memory back
+# at once and every large numpy temporary faults its pages in again: a frame-distance block took
+# 1.6-1.8x the CPU time (docs/decisions.md). Local clusters start their workers without it.
+NO_MALLOC_TRIM = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
 
 
 class ClusterError(RuntimeError):
@@ -59,11 +63,14 @@ def check_scheduler(address: str, timeout: float = DEFAULT_TIMEOUT) -> int:
 
 def local_cluster(workers: int | None = None):
     """A LocalCluster of ``workers`` single-threaded worker processes (default: one per core),
-    without a dashboard, its own logs silenced (the batch reports every outcome itself)."""
+    without a dashboard and without Dask's malloc trim setting (see ``NO_MALLOC_TRIM``), its own
+    logs silenced (the batch reports every outcome itself)."""
+    import dask
     from distributed import LocalCluster
     n = int(workers or os.cpu_count() or 1)
-    return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                        silence_logs=logging.CRITICAL)
+    with dask.config.set({NO_MALLOC_TRIM: None}):
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                            silence_logs=logging.CRITICAL)
 
 
 @contextmanager
@@ -90,8 +97,30 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, timeou
             cluster.close()
 
 
+def _aligned(x):
+    """``x`` with its numpy arrays aligned and C-contiguous (a dataclass, or an array): arrays
+    that arrive through Dask's serialization can be neither, and numpy multiplies such arrays
+    without BLAS."""
+    import dataclasses
+
+    import numpy as np
+    if isinstance(x, np.ndarray):
+        return np.require(x, requirements=["C", "A"])
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return dataclasses.replace(x, **{f.name: _aligned(getattr(x, f.name)) for f in dataclasses.fields(x)
+                                         if isinstance(getattr(x, f.name), np.ndarray)})
+    return x
+
+
+_SHARED: dict = {}      # on a worker: the scattered data of the current map, its arrays aligned once
+
+
 def _call_block(fn, block, shared):
-    data, *rest = shared
+    entry = _SHARED.get(id(shared))
+    if entry is None or entry[0] is not shared:
+        _SHARED.clear()
+        entry = _SHARED[id(shared)] = (shared, tuple(_aligned(x) for x in shared))
+    data, *rest = entry[1]
     return fn(data, block[0], block[1], *rest)
 
 
