@@ -309,12 +309,19 @@ def test_hand_started_scheduler_and_workers(sweep_file, reference, tmp_path):
         deadline = time.time() + 60
         while not info.is_file() and time.time() < deadline:
             time.sleep(0.1)
+        cfg = tmp_path / "dask-config"          # the README's setting for worker hosts
+        cfg.mkdir()
+        (cfg / "crowdweave.yaml").write_text(
+            "distributed:\n  nanny:\n    pre-spawn-environ:\n      MALLOC_TRIM_THRESHOLD_: null\n")
         procs.append(subprocess.Popen(dask_cmd + ["worker", f"tcp://127.0.0.1:{port}", "--nworkers", "2",
                                                   "--nthreads", "1", "--no-dashboard"],
-                                      env=ENV, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+                                      env={**ENV, "DASK_CONFIG": str(cfg)}, cwd=tmp_path,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         address = f"tcp://127.0.0.1:{port}"
         with distributed.Client(address, timeout=30, set_as_default=False) as c:
             c.wait_for_workers(2, timeout=60)
+            trim = c.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_"))
+            assert len(trim) == 2 and set(trim.values()) == {None}
         out = tmp_path / "out"
         r = subprocess.run([sys.executable, "-m", "authoring.cli", "batch", str(sweep_file), "--out", str(out),
                             "--scheduler", address, "--quiet"], env=ENV, cwd=ROOT, capture_output=True, text=True,
