@@ -63,13 +63,13 @@ def check_scheduler(address: str, timeout: float = DEFAULT_TIMEOUT) -> int:
 
 def local_cluster(workers: int | None = None):
     """A LocalCluster of ``workers`` single-threaded worker processes (default: one per core),
-    without a dashboard and without Dask's malloc trim setting (see ``NO_MALLOC_TRIM``), its own
+    its HTTP endpoints on a free port (no dashboard without bokeh) and without Dask's malloc trim setting (see ``NO_MALLOC_TRIM``), its own
     logs silenced (the batch reports every outcome itself)."""
     import dask
     from distributed import LocalCluster
     n = int(workers or os.cpu_count() or 1)
     with dask.config.set({NO_MALLOC_TRIM: None}):
-        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                             silence_logs=logging.CRITICAL)
 
 
