@@ -63,8 +63,9 @@ def check_scheduler(address: str, timeout: float = DEFAULT_TIMEOUT) -> int:
 
 def local_cluster(workers: int | None = None):
     """A LocalCluster of ``workers`` single-threaded worker processes (default: one per core),
-    its HTTP endpoints on a free port (no dashboard without bokeh) and without Dask's malloc trim setting (see ``NO_MALLOC_TRIM``), its own
-    logs silenced (the batch reports every outcome itself)."""
+    its HTTP endpoints on a free port (no dashboard without bokeh), without Dask's malloc trim
+    setting (see ``NO_MALLOC_TRIM``), its own logs silenced (the batch reports every outcome
+    itself)."""
     import dask
     from distributed import LocalCluster
     n = int(workers or os.cpu_count() or 1)
