@@ -1,7 +1,6 @@
 """``crowdweave author graph INPUTS... --out lib.cwpack``: build a snap-together motion graph."""
 from __future__ import annotations
 
-import os
 import sys
 import time
 from contextlib import contextmanager
@@ -20,13 +19,9 @@ def configure(p):
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="compute the frame-distance blocks on the Dask cluster at ADDRESS (e.g. tcp://host:8786); "
                         "the pack is the same")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help=f"without --scheduler: worker processes of a local cluster (default: one per core for inputs "
-                        f"of at least {LOCAL_CLUSTER_FRAMES} frames, else 1 = this process)")
-
-
-# Inputs from this many frames on are built on a local cluster by default (docs/decisions.md).
-LOCAL_CLUSTER_FRAMES = 20000
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="without --scheduler: compute the frame-distance blocks on a local cluster of N worker "
+                        "processes (default 1: in this process; see docs/scale_out.md for when more pays)")
 
 
 @contextmanager
@@ -68,11 +63,10 @@ def run(args) -> int:
     params = GraphBuildParams(fps=args.fps)
     if args.threshold is not None:
         params.threshold_cm = args.threshold
-    if args.workers is not None and args.workers < 1:
+    if args.workers < 1:
         raise CLIError(f"--workers must be at least 1, got {args.workers}")
-    workers = args.workers or ((os.cpu_count() or 1) if frames >= LOCAL_CLUSTER_FRAMES else 1)
     try:
-        with _distance_blocks(args.scheduler, workers) as map_blocks, \
+        with _distance_blocks(args.scheduler, args.workers) as map_blocks, \
                 tqdm(total=frames, desc="frame distances", unit="frame", disable=quiet) as bar:
             g = build_graph(takes, params, progress=bar.update, log=print, map_blocks=map_blocks)
     except (ValueError, SkeletonMismatchError) as e:
