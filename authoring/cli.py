@@ -25,6 +25,7 @@ COMMANDS = {
     "author": ("authoring.commands.author", "build runtime assets: motion graphs, roadmaps, flock graphs, patches"),
     "world": ("authoring.commands.world", "check a world stage: obstacles, markers, unusable prims"),
     "bake": ("authoring.commands.bake", "plan a sample scenario and write the baked crowd to USD"),
+    "batch": ("authoring.commands.batch", "bake every variant of a sweep on a Dask cluster, with a summary"),
 }
 
 

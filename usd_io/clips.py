@@ -20,7 +20,11 @@ The directory name ends in a digest of its files, so the stage on disk always re
 complete directory of matching content: a new bake renames a new directory into place before
 the stage is replaced, and :func:`remove_unused_clip_dirs` deletes the old one afterwards.
 Chunk layers are written in a ``spawn`` process pool (each process authors its chunks through
-Sdf and exports them); same input gives byte-identical files.
+Sdf and exports them), or, given a Dask scheduler address, on that cluster's workers: each worker
+returns its layer as the bytes of a ``.usdc`` file and this process writes them into the
+temporary directory, so the workers need no filesystem shared with the stage (only the tracks
+and the library travel, and the layers come back once). Same input gives byte-identical files
+either way.
 
 The workers die with the process that started them: each asks the kernel for SIGKILL when its
 parent exits (Linux ``PR_SET_PDEATHSIG``) and also watches its parent id, so a bake killed with
@@ -39,8 +43,10 @@ import re
 import shutil
 import signal
 import sys
+import tempfile
 import threading
 import time
+import uuid
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -52,7 +58,7 @@ from .stage import StageError
 from .timesamples import SkelValues, author_tracks, define_animated_specs
 
 __all__ = ["write_clip_layers", "ClipLayers", "remove_unused_clip_dirs", "clip_dir_pattern", "export_with_digest",
-           "failed_stage_path", "MANIFEST"]
+           "failed_stage_path", "chunk_layer_bytes", "MANIFEST"]
 
 MANIFEST = "manifest.usda"
 GRAPH_FILE = ".graph.pickle"     # the library, for the workers (removed before the rename)
@@ -99,6 +105,25 @@ def _chunk_layer(graph, sv, fps: float, items) -> Sdf.Layer:
     return layer
 
 
+def chunk_layer_bytes(graph, fps: float, name: str, items) -> tuple[str, bytes]:
+    """``(name, bytes of the .usdc file)`` of the clip layer of ``items`` (what a Dask worker
+    returns: the same bytes the process pool exports)."""
+    with tempfile.TemporaryDirectory(prefix="crowdweave-chunk-") as d:
+        path = Path(d) / name
+        layer = _chunk_layer(graph, SkelValues.of(graph.skeleton), fps, items)
+        if not layer.Export(str(path)):
+            raise StageError(path, "USD export failed")
+        return name, path.read_bytes()
+
+
+def _write_fsync(path: Path, data: bytes) -> str:
+    with open(path, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    return hashlib.sha256(data).hexdigest()
+
+
 # -- worker processes -----------------------------------------------------------------------------
 _W: dict = {}
 
@@ -138,8 +163,10 @@ def _write_chunk(args):
 class ClipLayers:
     """Clip layers being written for one bake (see :func:`write_clip_layers`)."""
 
-    def __init__(self, out_path, items, graph, fps: float, clips_per: int, workers: int | None):
+    def __init__(self, out_path, items, graph, fps: float, clips_per: int, workers: int | None,
+                 scheduler: str | None = None):
         self.out = Path(out_path)
+        self.scheduler = scheduler
         self.fps = float(fps)
         self.graph = graph
         chunks = [items[i:i + clips_per] for i in range(0, len(items), clips_per)]
@@ -149,7 +176,7 @@ class ClipLayers:
         self.out.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = temp_path(self.out, suffix="-clips", directory=True)
         self.dir_name: str | None = None
-        self._pool = self._pending = None
+        self._pool = self._pending = self._client = None
         try:
             self._start(graph)
         except BaseException:
@@ -157,7 +184,9 @@ class ClipLayers:
             raise
 
     def _start(self, graph) -> None:
-        if self.workers > 1:
+        if self.scheduler:
+            self._start_dask(graph)
+        elif self.workers > 1:
             # The library goes to the workers as a file: a large argument would block this process
             # until each worker has started up and read it. spawn, not fork: the parent has USD (and
             # its thread pool) loaded. A worker that dies raises BrokenProcessPool instead of hanging.
@@ -169,10 +198,37 @@ class ClipLayers:
                                              initargs=(str(graph_file), self.fps, os.getpid()))
             self._pending = [self._pool.submit(_write_chunk, (str(self.tmp), n, c)) for n, c in self.tasks]
 
+    def _start_dask(self, graph) -> None:
+        # A lost worker's chunks are computed again by the scheduler; this process writes each
+        # layer exactly once, as its result arrives.
+        from distributed import Client
+        try:
+            self._client = Client(self.scheduler, timeout=10, set_as_default=False)
+        except (OSError, ValueError, TypeError) as e:
+            raise ConnectionError(f"cannot reach the Dask scheduler at {self.scheduler}: {e}") from None
+        graph_data = self._client.scatter(graph, broadcast=False, hash=False)
+        run = uuid.uuid4().hex[:12]
+        self._pending = [self._client.submit(chunk_layer_bytes, graph_data, self.fps, n, c, pure=False,
+                                             key=f"crowdweave-clip-{n}-{run}")
+                         for n, c in self.tasks]
+
+    def _wait_dask(self) -> list:
+        from distributed import as_completed
+        digests = []
+        for fut in as_completed(self._pending, loop=self._client.loop):
+            name, data = fut.result()
+            digests.append((name, _write_fsync(self.tmp / name, data)))
+            fut.release()
+        self._client.close()
+        self._client = None
+        return digests
+
     def wait(self) -> str:
         """Wait for the chunk layers, write the manifest, rename the directory into place; returns
         its name (relative to the stage's directory)."""
-        if self._pool is not None:
+        if self._client is not None:
+            digests = self._wait_dask()
+        elif self._pool is not None:
             digests = [f.result() for f in self._pending]
             self._pool.shutdown()
             self._pool = None
@@ -215,6 +271,10 @@ class ClipLayers:
     def close(self, failed: bool) -> None:
         """Stop the workers (terminated at once after a failure or a signal: they may be in the
         middle of a chunk) and remove the temporary directory if it is still there."""
+        if self._client is not None:
+            self._client.cancel(self._pending)
+            self._client.close()
+            self._client = None
         if self._pool is not None:
             if failed:      # the executor offers no way to stop running tasks: end its processes
                 for p in list((getattr(self._pool, "_processes", None) or {}).values()):
@@ -232,13 +292,15 @@ class ClipLayers:
         return False
 
 
-def write_clip_layers(out_path, items, graph, fps: float, clips_per: int, workers: int | None = None) -> ClipLayers:
+def write_clip_layers(out_path, items, graph, fps: float, clips_per: int, workers: int | None = None,
+                      scheduler: str | None = None) -> ClipLayers:
     """Start writing the clip layers of ``items`` ((SkelRoot path, Track), ...) for a stage that
     will be saved as ``out_path``: ``clips_per`` characters per layer, ``workers`` processes
-    (default 2; 1 writes in this process). Use as a context manager; :meth:`ClipLayers.wait`
-    finishes the directory (temporary name, then rename), :meth:`ClipLayers.author_clip_set` points a
+    (default 2; 1 writes in this process), or the workers of the Dask cluster at ``scheduler``
+    (ConnectionError, naming the address, when it cannot be reached). Use as a context manager;
+    :meth:`ClipLayers.wait` finishes the directory (temporary name, then rename), :meth:`ClipLayers.author_clip_set` points a
     character at its layer. On an error the temporary directory is removed."""
-    return ClipLayers(out_path, list(items), graph, fps, int(clips_per), workers)
+    return ClipLayers(out_path, list(items), graph, fps, int(clips_per), workers, scheduler)
 
 
 def _clip_dir_of(stage_path: Path) -> str:

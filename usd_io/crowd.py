@@ -147,7 +147,7 @@ def reference_world(stage, world_path, out_path=None):
 
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
                       num_frames: int | None = None, world_path=None, out_path=None, body: bool = True,
-                      clips_per: int | None = None, workers: int | None = None):
+                      clips_per: int | None = None, workers: int | None = None, scheduler: str | None = None):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
     SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
     one prototype mesh). ``world_path`` (a world stage) is referenced as
@@ -156,7 +156,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
 
     ``clips_per=N`` (requires ``out_path``) writes the time samples (joint translations and
     rotations, ``crowdweave:root``) as value clips, one layer per N characters, in ``workers``
-    parallel processes (default 2), into a directory beside ``out_path`` that is assembled under a
+    parallel processes (default 2) or on the Dask cluster at ``scheduler``, into a directory beside ``out_path`` that is assembled under a
     temporary name and renamed into place (:func:`usd_io.clips.write_clip_layers`); the returned
     stage refers to it by a relative path. Save the stage to ``out_path`` (:func:`save_crowd_stage`
     also removes clip directories of earlier bakes to the same path)."""
@@ -199,7 +199,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
             author_tracks(layer, items, graph, sv,
                           lambda path, tr: define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body))
     else:
-        with write_clip_layers(out_path, items, graph, fps, int(clips_per), workers) as clips:
+        with write_clip_layers(out_path, items, graph, fps, int(clips_per), workers, scheduler) as clips:
             # the workers write the clip layers while this process authors the prims
             with Sdf.ChangeBlock():
                 for path, tr in items:

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import sys
 import time
+from contextlib import contextmanager
 
-from authoring.commands.args import check_output, number
+from authoring.commands.args import check_output, integer, number
 
 
 def configure(p):
@@ -24,6 +25,30 @@ def configure(p):
                    help="hub match threshold, RMS cm (default 6; 14 for capture with derived labels; > 0, at most 1000)")
     p.add_argument("--no-usd", action="store_true", help="skip the USD preview")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="compute the frame-distance blocks on the Dask cluster at ADDRESS (e.g. tcp://host:8786); "
+                        "the pack is the same")
+    p.add_argument("--workers", type=integer(1, 256), default=1, metavar="N",
+                   help="without --scheduler: compute the frame-distance blocks on a local cluster of N worker "
+                        "processes (default 1: in this process; see docs/scale_out.md for when more pays)")
+
+
+@contextmanager
+def _distance_blocks(scheduler, workers):
+    """``map_blocks`` for the build: on the cluster at ``scheduler``, on a local cluster of
+    ``workers`` processes, or None (this process)."""
+    if not scheduler and workers <= 1:
+        yield None
+        return
+    from authoring.batch.cluster import ClusterError, block_mapper, dask_client
+    from authoring.commands import CLIError
+    try:
+        with dask_client(scheduler, None if scheduler else workers) as client:
+            print(f"frame distances on {scheduler or 'a local cluster'} "
+                  f"({len(client.scheduler_info(n_workers=-1).get('workers', {}))} workers)")
+            yield block_mapper(client)
+    except ClusterError as e:
+        raise CLIError(str(e)) from None
 
 
 def run(args) -> int:
@@ -41,11 +66,13 @@ def run(args) -> int:
     t0 = time.perf_counter()
     quiet = args.quiet or not sys.stderr.isatty()
     try:
-        with tqdm(desc="reading takes", unit="file", disable=quiet) as rbar, \
+        with _distance_blocks(args.scheduler, args.workers) as map_blocks, \
+                tqdm(desc="reading takes", unit="file", disable=quiet) as rbar, \
                 tqdm(desc="frame distances", unit="frame", disable=quiet) as bar:
             g, report = build_library(args.inputs, mirror=args.mirror, labels=args.labels,
                                       threshold_cm=args.threshold, fps=args.fps, scale=args.scale,
-                                      log=print, progress=bar.update, read_progress=rbar.update)
+                                      log=print, progress=bar.update, read_progress=rbar.update,
+                                      map_blocks=map_blocks)
     except (FileNotFoundError, BVHError, LabelError, SkeletonMismatchError, ValueError) as e:
         raise CLIError(str(e)) from None
     for line in report:

@@ -41,6 +41,27 @@ def configure(p):
     p.add_argument("--keep-failed", action="store_true",
                    help="when the checker fails, keep the new stage as OUT.failed.usdc (and the report as "
                         "REPORT.failed.json) beside the previous ones; by default a failed bake writes nothing")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="write the value-clip layers on the workers of the Dask cluster at ADDRESS "
+                        "(e.g. tcp://host:8786; needs --clips-per; the layers come back to this process)")
+
+
+def bake_sample(sample, out, *, quiet: bool = True, **options) -> int:
+    """``crowdweave bake SAMPLE --out OUT`` as a function: the same code path as the command
+    (:func:`run`), so the files are the same bytes. ``options`` are the command's other options
+    by their argument names (``report``, ``seed``, ``clips_per``, ``workers``, ...; the rest keep
+    their defaults). Prints what the command prints; returns its exit code (0: the checker
+    passed, 1: it failed); bad input raises :class:`authoring.commands.CLIError`."""
+    import argparse
+    parser = argparse.ArgumentParser(prog="crowdweave bake")
+    configure(parser)
+    args = parser.parse_args([str(sample), "--out", str(out)])
+    for key, value in options.items():
+        if not hasattr(args, key):
+            raise TypeError(f"bake_sample: unknown option {key!r}")
+        setattr(args, key, value)
+    args.quiet = quiet
+    return run(args)
 
 
 def load_sample(sample, log=print, progress=True):
@@ -183,6 +204,14 @@ def run(args) -> int:
     for p in (out, report_path):
         if p is not None:
             sweep_stale_temps(p)            # left by bakes that were killed
+    if args.scheduler and args.clips_per is None:
+        raise CLIError("--scheduler writes value-clip layers on a Dask cluster: give --clips-per N too")
+    if args.scheduler:                  # before planning, which can take long
+        from authoring.batch.cluster import ClusterError, check_scheduler
+        try:
+            check_scheduler(args.scheduler)
+        except ClusterError as e:
+            raise CLIError(str(e)) from None
     try:
         sc, graph, env, roadmap = load_sample(args.sample, progress=not quiet)
     except (ScenarioError, AssetError, ValueError, FileNotFoundError) as e:
@@ -201,7 +230,6 @@ def run(args) -> int:
     tracks = {c.name: c.track for c in result.characters}
     flock_report = bake_flocks(sc, env, result.fps, result.num_frames) if sc.flocks else None
     zones, tiling_report = bake_tilings(sc, graph, env, result.fps, result.num_frames) if sc.tilings else ([], None)
-
     from runtime.crowd.tracks import box_trajectories
     from usd_io.crowd import build_crowd_stage, write_props
     world_path = Path(sc.path).parent / sc.world if sc.world else None
@@ -209,6 +237,7 @@ def run(args) -> int:
     try:
         stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
                                   out_path=out, clips_per=args.clips_per, workers=args.workers,
+                                  scheduler=args.scheduler,
                                   metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
         for z in zones:   # tiled characters: SkelRoots like the crowd's, posed from the zone's patches
             build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames)

@@ -63,11 +63,13 @@ def _joint_weights(sk: Skeleton, table: dict) -> np.ndarray:
 
 
 def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None, progress=None,
-                log=print) -> MotionGraph:
+                log=print, map_blocks=None) -> MotionGraph:
     """The motion graph of ``takes`` (all at ``params.fps``, one skeleton family): hub poses,
     snapped edges between them, states and labels, pruned to strongly connected state
     subgraphs. ``progress(n)`` is called as frame distances are computed; ``log`` prints
-    the build's figures."""
+    the build's figures. ``map_blocks`` computes the blocks of frame distances elsewhere (see
+    :func:`hubs.find_candidates`; :func:`authoring.batch.cluster.block_mapper` runs them on a
+    Dask cluster): the graph is the same."""
     params = params or GraphBuildParams()
     if not takes:
         raise ValueError("no takes to build a graph from")
@@ -92,7 +94,8 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     threshold = (params.threshold_cm / 100.0) ** 2
     match_cls, match_ok = pose_classes(labels, cls, compatible) if params.match_pose_kind else (cls, compatible)
     cand = find_candidates(feats, threshold, match_cls, match_ok, row_ok=feats.valid & is_state,
-                           col_ok=feats.valid, band=params.min_edge_frames, progress=progress)
+                           col_ok=feats.valid, band=params.min_edge_frames, progress=progress,
+                           map_blocks=map_blocks)
     hubs = pick_hubs(feats, cand, params.min_edge_frames, params.min_occurrences, params.max_hubs,
                      hub_ok=feats.valid & is_state)
     if not hubs:

@@ -21,12 +21,29 @@ where ``S = sum w |p|^2`` of the centred cloud. ``A``, ``B`` and ``C`` are dot p
 per-frame feature vectors, so all pairs of a chunk of rows come out of three matrix
 products. Rows are processed in chunks so memory stays ``O(chunk * frames)``; an hour of
 data (108,000 frames) never needs the full matrix.
+
+The products run on one BLAS thread: OpenBLAS splits a product between its threads in a way
+that changes the rounding of the sums, so the same rows would come out a few ulps apart on
+machines with other core counts, or on cluster workers (which run one BLAS thread each). With
+one thread a block of rows has the same bits wherever it is computed; the cores are used by
+computing blocks in parallel instead (``find_candidates(map_blocks=...)``).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+_BLAS = None       # threadpoolctl controller, made on first use (after numpy has loaded its BLAS)
+
+
+def _one_blas_thread():
+    global _BLAS
+    if _BLAS is None:
+        from threadpoolctl import ThreadpoolController
+        _BLAS = ThreadpoolController()
+    return _BLAS.limit(limits=1, user_api="blas")
+
 
 __all__ = ["FrameFeatures", "frame_features", "pair_distance", "distance_rows", "aligned_distance_reference", "DEFAULT_JOINT_WEIGHTS"]
 
@@ -103,9 +120,10 @@ def distance_rows(f: FrameFeatures, rows: slice | np.ndarray, cols: slice | np.n
     Returns (D, theta) where theta is the best alignment angle (rotation of the column frame's
     cloud onto the row frame's cloud about +Y), or None when ``with_angle`` is False.
     """
-    A = f.xz[rows] @ f.xz[cols].T
-    B = f.xz[rows] @ f.xz_perp[cols].T
-    C = f.y[rows] @ f.y[cols].T
+    with _one_blas_thread():          # the same bits wherever the block is computed (module docstring)
+        A = f.xz[rows] @ f.xz[cols].T
+        B = f.xz[rows] @ f.xz_perp[cols].T
+        C = f.y[rows] @ f.y[cols].T
     r = np.sqrt(A * A + B * B)
     D = f.sq[rows][:, None] + f.sq[cols][None, :] - 2.0 * C - 2.0 * r
     np.maximum(D, 0.0, out=D)

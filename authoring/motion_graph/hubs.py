@@ -18,7 +18,7 @@ import numpy as np
 
 from .distance import FrameFeatures, distance_rows
 
-__all__ = ["Candidates", "find_candidates", "pick_hubs", "Hub", "still_loops"]
+__all__ = ["Candidates", "find_candidates", "candidate_block", "candidate_rows", "pick_hubs", "Hub", "still_loops"]
 
 
 @dataclass
@@ -37,42 +37,65 @@ class Hub:
     distances: np.ndarray      # D(frame, occurrence)
 
 
+def candidate_block(f: FrameFeatures, s: int, e: int, threshold: float, state_cls: np.ndarray,
+                    compatible: np.ndarray, row_ok: np.ndarray, col_ok: np.ndarray, band: int):
+    """The row-wise local minima of rows ``s:e`` (see :func:`find_candidates`): ``(counts,
+    cols, dist)``, matches per row and their columns and distances in row order. Blocks are
+    independent, so they can be computed anywhere, in any order."""
+    N = len(f.sq)
+    D, _ = distance_rows(f, slice(s, e), with_angle=False)
+    rows = np.arange(s, e)
+    # forbid trivial neighbours and incompatible / invalid columns
+    same_take = f.take[rows][:, None] == f.take[None, :]
+    near = np.abs(rows[:, None] - np.arange(N)[None, :]) < band
+    bad = (same_take & near) | ~col_ok[None, :] | ~compatible[state_cls[rows]][:, state_cls]
+    D[bad] = np.inf
+    # local minima along the row, inside one take (take borders count as +inf)
+    left = np.concatenate([np.full((e - s, 1), np.inf), D[:, :-1]], axis=1)
+    right = np.concatenate([D[:, 1:], np.full((e - s, 1), np.inf)], axis=1)
+    border_l = np.concatenate([[True], f.take[1:] != f.take[:-1]])
+    border_r = np.concatenate([f.take[1:] != f.take[:-1], [True]])
+    left[:, border_l] = np.inf
+    right[:, border_r] = np.inf
+    is_min = (D <= left) & (D < right) & (D < threshold) & row_ok[rows][:, None]
+    r, c = np.nonzero(is_min)
+    return np.bincount(r, minlength=e - s), c.astype(np.int64), D[r, c]
+
+
+def candidate_rows(n_frames: int, chunk_bytes: int = 256 << 20) -> list[tuple[int, int]]:
+    """The row blocks ``(s, e)`` of :func:`find_candidates` (each block's distance rows take
+    about ``chunk_bytes``)."""
+    chunk = int(max(16, min(n_frames, chunk_bytes // max(1, 8 * 4 * n_frames))))
+    return [(s, min(n_frames, s + chunk)) for s in range(0, n_frames, chunk)]
+
+
 def find_candidates(f: FrameFeatures, threshold: float, state_cls: np.ndarray, compatible: np.ndarray,
                     row_ok: np.ndarray, col_ok: np.ndarray, band: int, chunk_bytes: int = 256 << 20,
-                    progress=None) -> Candidates:
+                    progress=None, map_blocks=None) -> Candidates:
     """Row-wise local minima of D below ``threshold``.
 
     state_cls: (N,) state class of every frame; compatible: (S, S) bool, which classes may
     match (rows x cols);
     row_ok/col_ok: (N,) frames allowed as hubs / as occurrences;
     band: frames of the same take closer than this never match (trivial neighbours).
+    map_blocks: ``map_blocks(candidate_block, blocks, f, threshold, ...)`` yields the results
+    of ``candidate_block(f, s, e, threshold, ...)`` for every ``(s, e)`` of ``blocks``, in order
+    (for example on the workers of a cluster); default: one after another in this process.
+    The blocks are the same either way, so the result is too.
     """
     N = len(f.sq)
-    chunk = int(max(16, min(N, chunk_bytes // max(1, 8 * 4 * N))))
+    blocks = candidate_rows(N, chunk_bytes)
+    args = (threshold, state_cls, compatible, row_ok, col_ok, band)
+    if map_blocks is None:
+        results = (candidate_block(f, s, e, *args) for s, e in blocks)
+    else:
+        results = map_blocks(candidate_block, blocks, f, *args)
     indptr = np.zeros(N + 1, dtype=np.int64)
     cols_l, dist_l = [], []
-    for s in range(0, N, chunk):
-        e = min(N, s + chunk)
-        D, _ = distance_rows(f, slice(s, e), with_angle=False)
-        rows = np.arange(s, e)
-        # forbid trivial neighbours and incompatible / invalid columns
-        same_take = f.take[rows][:, None] == f.take[None, :]
-        near = np.abs(rows[:, None] - np.arange(N)[None, :]) < band
-        bad = (same_take & near) | ~col_ok[None, :] | ~compatible[state_cls[rows]][:, state_cls]
-        D[bad] = np.inf
-        # local minima along the row, inside one take (take borders count as +inf)
-        left = np.concatenate([np.full((e - s, 1), np.inf), D[:, :-1]], axis=1)
-        right = np.concatenate([D[:, 1:], np.full((e - s, 1), np.inf)], axis=1)
-        border_l = np.concatenate([[True], f.take[1:] != f.take[:-1]])
-        border_r = np.concatenate([f.take[1:] != f.take[:-1], [True]])
-        left[:, border_l] = np.inf
-        right[:, border_r] = np.inf
-        is_min = (D <= left) & (D < right) & (D < threshold) & row_ok[rows][:, None]
-        r, c = np.nonzero(is_min)
-        counts = np.bincount(r, minlength=e - s)
+    for (s, e), (counts, c, d) in zip(blocks, results):
         indptr[s + 1:e + 1] = counts
-        cols_l.append(c.astype(np.int64))
-        dist_l.append(D[r, c])
+        cols_l.append(c)
+        dist_l.append(d)
         if progress is not None:
             progress(e - s)
     indptr = np.cumsum(indptr)

@@ -39,12 +39,13 @@ def capture_params(params: GraphBuildParams | None = None, derived: bool = True,
 
 def build_library(inputs, mirror: bool = False, labels=None, threshold_cm: float | None = None,
                   params: GraphBuildParams | None = None, fps: float = 30.0, scale=None, derive=None,
-                  log=print, progress=None, read_progress=None) -> tuple[MotionGraph, list[str]]:
+                  log=print, progress=None, read_progress=None, map_blocks=None) -> tuple[MotionGraph, list[str]]:
     """The motion graph of ``inputs`` (take directories and BVH files, :func:`.sources.load_sources`)
     with ``meta["build_report"]`` = {"sources": per file seconds kept of seconds given and
     why the rest was dropped, "capabilities": what the library can do and lacks}; and the
     report's lines for the terminal. ``params``: explicit build parameters (else
-    :func:`capture_params`)."""
+    :func:`capture_params`); ``map_blocks``: where the frame-distance blocks are computed (see
+    :func:`.build.build_graph`)."""
     takes, files = load_sources(inputs, fps=fps, scale=scale, labels=labels, progress=read_progress,
                                 mirror=mirror, derive=derive)
     if not takes:
@@ -58,7 +59,7 @@ def build_library(inputs, mirror: bool = False, labels=None, threshold_cm: float
     elif threshold_cm is not None:
         params = replace(params, threshold_cm=float(threshold_cm))
     params = replace(params, fps=fps)
-    g = build_graph(takes, params, progress=progress, log=log)
+    g = build_graph(takes, params, progress=progress, log=log, map_blocks=map_blocks)
     sources = source_report(g, files)
     caps = capabilities(g, takes)
     g.meta["build_report"] = {"sources": sources, "capabilities": caps}
