@@ -145,9 +145,10 @@ def test_sdf_error_bound_and_outside_behaviour():
     # grid nodes reproduce the samples exactly
     nodes = sdf.origin + 0.1 * np.array([[3, 4], [10, 2]])
     np.testing.assert_allclose(sdf.sample(nodes), env.distance(nodes), atol=1e-12)
-    # outside the grid: exact distance
+    # outside the grid: a lower bound, at least the margin, never above the true distance
     far = np.array([[x1 + 5.0, z1 + 3.0], [x0 - 7.0, 0.0]])
-    np.testing.assert_array_equal(sdf.sample(far), env.distance(far))
+    got = sdf.sample(far)
+    assert np.all(got >= 1.0) and np.all(got <= env.distance(far) + 1e-12)
     assert np.all(np.isinf(Environment.open_ground().sdf().sample(far)))
 
 
@@ -304,7 +305,7 @@ def test_the_distance_field_outside_its_grid_is_a_lower_bound_beyond_the_margin(
     p = np.random.default_rng(0).uniform(-20, 25, (20000, 2))
     hi = sdf.origin + sdf.resolution * (np.array(sdf.shape) - 1)
     outside = np.any((p < sdf.origin) | (p > hi), axis=1)
-    assert outside.sum() > 10000 and (~outside).sum() > 1000
+    assert outside.sum() > 10000 and (~outside).sum() > 500
     got, exact = sdf.sample(p), env.distance(p)
     assert np.all(got[outside] >= 2.0) and np.all(got[outside] <= exact[outside] + 1e-9)
     assert np.all(np.abs(got[~outside] - exact[~outside]) <= sdf.max_error + 1e-9)

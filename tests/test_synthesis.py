@@ -465,7 +465,7 @@ def _repair_setup(monkeypatch, plans):
     for ci, r in results.items():
         ctx.insert(ci, r.track)
     made = {key: result(*spec) for key, spec in plans.items()}
-    monkeypatch.setattr(sched, "plan_one", lambda ctx, results, ci, k, attempt=0: made[(ci, attempt)])
+    monkeypatch.setattr(sched, "plan_one", lambda ctx, results, ci, k, attempt=0, give_up=True: made[(ci, attempt)])
     return sched, ctx, results, made
 
 
