@@ -9,7 +9,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 
 from ...motion.graph import MotionGraph
-from ...motion.planar import compose
+from ...motion.planar import compose, wrap_angle
 from .params import SearchParams
 
 __all__ = ["MotionLibrary"]
@@ -69,6 +69,7 @@ class MotionLibrary:
         self.adj = csr_matrix((np.ones(E), (g.edge_src, g.edge_dst)), shape=(N, N))
         self.max_radius = float(g.frame_radius.max()) if len(g.frame_radius) else 0.5
         self._lookahead = {}
+        self._endings = {}
 
     def lookahead(self, reverse: bool, travel: int):
         """Per node: its out-edges inside the travel state and, for each, every two-edge
@@ -109,6 +110,63 @@ class MotionLibrary:
             table.append((out, comb, dur2, np.ascontiguousarray(disp[out]), np.ascontiguousarray(self.dur[out])))
         self._lookahead[key] = table
         return table
+
+    def endings(self, goal_node: int, travel: int, clips: int = 2, limit: int = 256) -> dict:
+        """Clip sequences of the ``travel`` state that end in ``goal_node``, per first node (the
+        short-move search's endings, :mod:`.short`; computed once per goal node).
+
+        Returns {node: (edges (K, clips) padded -1 at the end, transform (K, 3), duration (K,))}
+        with the empty ending at ``goal_node`` itself; distinct transforms only (5 cm, 5 deg:
+        of two sequences from the same node with the same transform only the one with fewer
+        clips is kept, and only it is extended), at most ``limit`` per node."""
+        key = (int(goal_node), int(travel), int(clips), int(limit))
+        if key in self._endings:
+            return self._endings[key]
+        g = self.g
+        tr_edges = np.flatnonzero(g.edge_state == travel)
+        by_dst = tr_edges[np.argsort(g.edge_dst[tr_edges], kind="stable")]
+        ptr = np.searchsorted(g.edge_dst[by_dst], np.arange(g.num_nodes + 1))
+        seq = -np.ones((1, clips), dtype=np.int64)           # level 0: the empty ending
+        first = np.array([int(goal_node)])
+        tr = np.zeros((1, 3))
+        dur = np.zeros(1)
+        levels = [(seq, first, tr, dur)]
+        seen = np.zeros(0, dtype=np.int64)
+
+        def distinct(first, tr):
+            nonlocal seen
+            # one int64 per (first node, x, z, heading) cell: 5 cm and 5 deg cells
+            q = (((first.astype(np.int64) * 65536 + (np.rint(tr[:, 0] / 0.05).astype(np.int64) + 32768)) * 65536
+                  + (np.rint(tr[:, 1] / 0.05).astype(np.int64) + 32768)) * 128
+                 + np.rint(wrap_angle(tr[:, 2]) / np.radians(5)).astype(np.int64) + 64)
+            _, idx = np.unique(q, return_index=True)
+            idx = np.sort(idx)
+            idx = idx[~np.isin(q[idx], seen)]
+            seen = np.concatenate([seen, q[idx]])
+            return idx
+
+        distinct(first, tr)
+        for level in range(1, clips + 1):
+            cnt = ptr[first + 1] - ptr[first]
+            if cnt.sum() == 0:
+                break
+            parent = np.repeat(np.arange(len(first)), cnt)
+            off = np.repeat(ptr[first] - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt)
+            e = by_dst[off + np.arange(int(cnt.sum()))]
+            seq = np.concatenate([e[:, None], seq[parent, :clips - 1]], axis=1)
+            tr = compose(self.disp[e], tr[parent])
+            dur = self.dur[e] + dur[parent]
+            first = g.edge_src[e]
+            k = distinct(first, tr)
+            seq, first, tr, dur = seq[k], first[k], tr[k], dur[k]
+            levels.append((seq, first, tr, dur))
+        S, N, T, D = (np.concatenate(x) for x in zip(*levels))
+        out = {}
+        for n in np.unique(N):
+            m = np.flatnonzero(N == n)[:limit]
+            out[int(n)] = (S[m], T[m], D[m])
+        self._endings[key] = out
+        return out
 
     def change_time(self, from_nodes, to_nodes) -> float:
         """Seconds of the quickest motion from any of ``from_nodes`` to any of ``to_nodes``

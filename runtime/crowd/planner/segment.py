@@ -34,6 +34,7 @@ from .motion_cache import task_key
 from .params import SearchParams
 from .search import RandomizedSearch
 from .seeds import GreedySeed
+from .short import SHORT_DISTANCE, short_move
 from .splice import splice
 from .types import Config, Goal, SegmentResult, Step
 from .waypoints import segment_waypoints
@@ -161,6 +162,8 @@ class SegmentPlanner:
         result = None
         goal_node = goal_cfg = None
         per_attempt = max(60, p.n_max // 6)     # reseeds at the same points whatever the limit
+        short = (np.hypot(goal.position[0] - start.x, goal.position[1] - start.z) < SHORT_DISTANCE
+                 and g.node_state[start.node] == travel)
         while result is None and iterations < n_max and queue:
             wps = queue.pop(0)
             F0, f_end = yield from self.seed(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt,
@@ -177,6 +180,14 @@ class SegmentPlanner:
                                           True, budget, reserve_b).steps()
             B0 = B0r[::-1]
             yield Step.SEARCH
+            if short:
+                short = False
+                quick = RandomizedSearch(lib, p, self.collider, self.compiled, start, goal_cfg, goal_node, F0, B0,
+                                         window_rel, rng, 0)
+                result = yield from short_move(quick, travel)
+                iterations += quick.iterations
+                if result is not None:
+                    break
             search = RandomizedSearch(lib, p, self.collider, self.compiled, start, goal_cfg, goal_node, F0, B0,
                                       window_rel, rng, min(per_attempt, n_max - iterations))
             result = yield from search.steps()
