@@ -23,6 +23,7 @@ COMMANDS = {
     "author": ("authoring.commands.author", "build runtime assets: motion graphs, roadmaps, flock graphs, patches"),
     "world": ("authoring.commands.world", "check a world stage: obstacles, markers, unusable prims"),
     "bake": ("authoring.commands.bake", "plan a sample scenario and write the baked crowd to USD"),
+    "generate": ("authoring.commands.generate", "write a random valid world and crowd scenario (tests, benchmarks)"),
 }
 
 
