@@ -118,6 +118,6 @@ def generate_scenario(seed: int = 0, characters: int = 60, kind: str = "mixed", 
             raise AssertionError(f"generated scenario (seed {seed}) breaks its rules: " + "; ".join(problems[:5]))
         return GeneratedScenario(data, world, env, kinds, fs, p, int(seed))
     raise ScenarioGenError(
-        f"cannot place {p.characters} characters of kind {p.kind!r} in {p.characters * p.area_per_character:.0f} m^2 "
-        f"({p.area_per_character:g} m^2 each) keeping {p.clearance} m from obstacles and {p.spacing} m between "
-        f"endpoints, in {p.attempts} layouts (last: {why}); give more area per character or fewer characters")
+        f"cannot place {p.characters} characters of kind {p.kind!r} at {p.area_per_character:g} m^2 each (more for "
+        f"seats and boxes) keeping {p.clearance} m from obstacles and {p.spacing} m between endpoints, in "
+        f"{p.attempts} layouts (last: {why}); give more area per character or fewer characters")
