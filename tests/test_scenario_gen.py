@@ -219,15 +219,15 @@ def test_mixed_draws_every_kind_and_the_world_has_every_obstacle(tmp_path):
 
 
 def test_parameters_that_cannot_be_met_say_why(tmp_path, capsys):
-    with pytest.raises(ScenarioGenError, match="cannot place 100 characters"):
-        generate_scenario(seed=0, characters=100, area_per_character=7.0)
+    with pytest.raises(ScenarioGenError, match="cannot place 40 characters of kind 'boxes'"):
+        generate_scenario(seed=0, characters=40, kind="boxes", area_per_character=9.0)
     with pytest.raises(ScenarioGenError, match="districts"):
         generate_scenario(seed=0, characters=100, area_per_character=2.0)
     with pytest.raises(ScenarioGenError, match="unknown kind"):
         generate_scenario(seed=0, characters=10, kind="parade")
     from authoring.cli import main
-    assert main(["generate", "scenario", "--characters", "100", "--area-per-character", "7", "--out",
-                 str(tmp_path / "x")]) == 2
+    assert main(["generate", "scenario", "--characters", "40", "--kind", "boxes", "--area-per-character", "9",
+                 "--out", str(tmp_path / "x")]) == 2
     assert "give more area per character" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
 
