@@ -79,7 +79,7 @@ def _doc(p: GenParams, seed: int) -> str:
 def _attempt(p: GenParams, seed: int, attempt: int):
     rng = np.random.default_rng([int(seed), int(attempt)])
     W, D, districts = plan_districts(p, rng)
-    world, _ = build_world(p, rng, (W, D), districts, _doc(p, seed))
+    world = build_world(rng, (W, D), districts, _doc(p, seed))
     env = world.environment()
     fs = FreeSpace(env, (0.0, 0.0, W, D), p.walk_radius, p.grid)
     tasks = draw_tasks(p, env, fs, rng, districts, world)

@@ -39,7 +39,6 @@ ROW_PITCH = 3.6         # m between rows: 1 m to the partition behind, a 2.5 m l
 PARTITION_BEHIND = 1.0  # m from a seat's root to the middle of the partition behind it
 DOOR_WIDTH = (2.4, 3.0)
 MIN_SIDE = 8.0          # m: the narrowest district (two rooms with a door, two seat rows)
-WALL = 0.2
 
 
 @dataclass
@@ -185,7 +184,7 @@ def _room_walls(d: District, districts, world_size, placer: Placer, rng):
     placer.wall(f"D{d.index}_Inner", a, b, doors=doors)
 
 
-def _seat_rows(d: District, placer: Placer, p: GenParams, rng):
+def _seat_rows(d: District, placer: Placer, rng):
     """Rows of seats across one side of the district, the partition behind each row inside a
     turned Xform (the row's frame); the whole block turned by a few degrees where it fits."""
     x0, z0, x1, z1 = d.rect
@@ -196,10 +195,8 @@ def _seat_rows(d: District, placer: Placer, p: GenParams, rng):
     per_row = max(2, int((along - 3.0) // SEAT_PITCH) + 1)
     rows = int(math.ceil(need / per_row))
     per_row = int(math.ceil(need / rows))
-    block_depth = (rows - 1) * ROW_PITCH + PARTITION_BEHIND + 2.5
-    if block_depth > depth - 1.5:
+    if (rows - 1) * ROW_PITCH + PARTITION_BEHIND + 2.5 > depth - 1.5:     # too deep: fewer rows (and seats)
         rows = max(1, int((depth - 1.5 - PARTITION_BEHIND - 2.5) // ROW_PITCH) + 1)
-        block_depth = (rows - 1) * ROW_PITCH + PARTITION_BEHIND + 2.5
     row_len = (per_row - 1) * SEAT_PITCH + 0.8
     # the block's back (partitions) against the district side behind the seats, centred along
     c = np.array([(x0 + x1) / 2, (z0 + z1) / 2])
@@ -242,9 +239,9 @@ def _seat_rows(d: District, placer: Placer, p: GenParams, rng):
         placer.keep_out(front, row_len / 2)
 
 
-def build_world(p: GenParams, rng, size, districts, doc: str):
-    """The world stage (a :class:`WorldBuilder`, obstacles and seats; boxes come with the tasks)
-    and its :class:`Placer`."""
+def build_world(rng, size, districts, doc: str) -> WorldBuilder:
+    """The world stage: perimeter, walls, seat rows and random obstacles (the boxes come with
+    the tasks)."""
     W, D = size
     world = WorldBuilder(doc)
     placer = Placer(world, rng)
@@ -257,14 +254,14 @@ def build_world(p: GenParams, rng, size, districts, doc: str):
         if d.kind == "rooms":
             _room_walls(d, districts, size, placer, rng)
         elif d.kind == "seats":
-            _seat_rows(d, placer, p, rng)
+            _seat_rows(d, placer, rng)
         elif d.kind == "crossing":
             _crossing(d, rng)
     for d in districts:
         name = f"D{d.index}_Obstacle"
         if d.kind == "crossing":
             x0, z0, x1, z1 = d.inset(1.0)
-            for s in d.bands:       # obstacles may reach into the bands, not to their outer 2 m
+            for s in d.bands:       # centres 3 m from a band's outer side (obstacles may reach into bands)
                 x0, z0, x1, z1 = {"-x": (d.rect[0] + 3.0, z0, x1, z1), "+x": (x0, z0, d.rect[2] - 3.0, z1),
                                   "-z": (x0, d.rect[1] + 3.0, x1, z1), "+z": (x0, z0, x1, d.rect[3] - 3.0)}[s]
             placer.scatter(name, (x0, z0, x1, z1), max(1, int(round(d.area / 22.0))))
@@ -274,4 +271,4 @@ def build_world(p: GenParams, rng, size, districts, doc: str):
                                shares=(0.6, 0.4, 0.0), tries=20)
         elif d.kind in ("meeting", "boxes"):
             placer.scatter(name, d.inset(1.0), max(1, int(round(d.area / 40.0))))
-    return world, placer
+    return world
