@@ -19,7 +19,7 @@ def configure_scenario(p):
                         "carrying boxes; mixed (default) draws one per district of characters")
     p.add_argument("--area-per-character", type=float, default=_DEFAULTS.area_per_character, metavar="M2",
                    help=f"ground per character, m^2, obstacles included (default {_DEFAULTS.area_per_character:g}; "
-                        "boxes districts get 1.6x)")
+                        "seats and boxes districts get 1.25x and 1.6x)")
     p.add_argument("--group-size", type=int, default=_DEFAULTS.group_size, metavar="N",
                    help=f"characters per district (default {_DEFAULTS.group_size})")
     p.add_argument("--out", required=True, help="output directory (world.usda and scenario.toml are written there)")

@@ -119,5 +119,5 @@ def generate_scenario(seed: int = 0, characters: int = 60, kind: str = "mixed", 
         return GeneratedScenario(data, world, env, kinds, fs, p, int(seed))
     raise ScenarioGenError(
         f"cannot place {p.characters} characters of kind {p.kind!r} at {p.area_per_character:g} m^2 each (more for "
-        f"boxes) keeping {p.clearance} m from obstacles and {p.spacing} m between endpoints, in "
+        f"seats and boxes) keeping {p.clearance} m from obstacles and {p.spacing} m between endpoints, in "
         f"{p.attempts} layouts (last: {why}); give more area per character or fewer characters")

@@ -32,8 +32,9 @@ OPPOSITE = {"-x": "+x", "+x": "-x", "-z": "+z", "+z": "-z"}
 BAND = 3.0              # m: least depth of a crossing district's start and goal bands
 BAND_AREA = 4.5         # m^2 of band per endpoint in it (random points 1.5 m apart fill ~55% of a plane)
 # ground per character of each kind, relative to GenParams.area_per_character: a carrier has
-# three endpoints (start, box stand point, put-down spot) and a crate (docs/decisions.md)
-KIND_AREA = {"crossing": 1.0, "rooms": 1.0, "meeting": 1.0, "seats": 1.0, "boxes": 1.6}
+# three endpoints (start, box stand point, put-down spot) and a crate; seat rows and their lanes
+# take ground no start may use (docs/decisions.md)
+KIND_AREA = {"crossing": 1.0, "rooms": 1.0, "meeting": 1.0, "seats": 1.25, "boxes": 1.6}
 SEAT_PITCH = 1.6        # m between seats of a row
 ROW_PITCH = 3.6         # m between rows: 1 m to the partition behind, a 2.5 m lane in front
 PARTITION_BEHIND = 1.0  # m from a seat's root to the middle of the partition behind it

@@ -20,8 +20,8 @@ class GenParams:
 
     Sizes: the ground is ``characters x area_per_character`` m^2 (obstacles included), cut
     into districts of about ``group_size`` characters each; every district holds one kind of
-    crowd task (boxes districts get more ground per character: ``layout.KIND_AREA``). The defaults give moderate densities: 60 characters of mixed kinds
-    get a plaza of about 37 x 25 m, 150 about 48 x 48 m.
+    crowd task (seats and boxes districts get more ground per character: ``layout.KIND_AREA``). The defaults give moderate densities: 60 characters of mixed kinds
+    get a plaza of about 38 x 25 m, 150 about 49 x 49 m.
 
     Validity rules (Sung, Kovar and Gleicher 2005 plan exact constraints; a scenario must be
     solvable in principle): every start and goal at least ``clearance`` from obstacles (seats

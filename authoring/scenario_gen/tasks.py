@@ -23,6 +23,7 @@ from .params import KIND_PREFIX
 __all__ = ["Crowded", "Task", "Endpoints", "draw_tasks", "CRATE_SPACING"]
 
 CRATE_SPACING = 1.0     # m from a crate to any endpoint but its own stand point
+SEAT_START_GAP = 3.0    # m from a seats district's starts to every seat (out of the rows' lanes)
 BATCH = 32
 
 
@@ -207,7 +208,8 @@ def _meeting(dr: _Drawer, d: District, names, first_meeting: int):
 
 
 def _seats(dr: _Drawer, d: District, names):
-    """Each character walks to a seat of the district's rows and sits down."""
+    """Each character walks from outside the rows (``SEAT_START_GAP`` from every seat) to a
+    seat and sits down."""
     p = dr.p
     usable = []
     for path, s, yaw in d.seats:
@@ -220,10 +222,15 @@ def _seats(dr: _Drawer, d: District, names):
     pick = dr.rng.choice(len(usable), size=len(names), replace=False)
     chosen = [usable[int(i)] for i in pick]
     dr.ep.add(*[s for _, s, _ in chosen])
+    seats = np.array([s for _, s, _ in d.seats])
     out = []
     for name, (path, s, front) in zip(names, chosen):
         comp = dr.fs.component(front)
-        start = dr.point(d.rect, lambda q: float(np.hypot(*(q - s))) >= 3.0 and dr.fs.component(q) == comp)
+
+        def outside_rows(q):
+            # starts stand outside the rows and their lanes, where the others walk to their seats
+            return np.hypot(*(seats - q).T).min() >= SEAT_START_GAP and dr.fs.component(q) == comp
+        start = dr.point(d.rect, outside_rows)
         if start is None:
             raise Crowded(f"{name}: no start in district {d.index} that reaches seat {path}")
         dr.ep.add(start)
