@@ -158,6 +158,10 @@ def test_each_kind(tmp_path, kind):
     if kind == "seats":
         assert all(g.kind == "seat" for g in goals)
         assert len({g.marker for g in goals}) == len(goals)
+        # everyone starts outside the rows and their lanes
+        seats = np.array([m.position for m in env.markers_with_role("seat")])
+        starts = np.array([c.position for c in sc.characters])
+        assert np.hypot(*(starts[:, None] - seats[None]).transpose(2, 0, 1)).min() >= 2.5
     elif kind == "boxes":
         assert all([g.kind for g in c.goals] == ["box", "position"] and c.goals[1].pose == "stand"
                    for c in sc.characters)
