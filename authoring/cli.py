@@ -26,6 +26,7 @@ COMMANDS = {
     "world": ("authoring.commands.world", "check a world stage: obstacles, markers, unusable prims"),
     "bake": ("authoring.commands.bake", "plan a sample scenario and write the baked crowd to USD"),
     "batch": ("authoring.commands.batch", "bake every variant of a sweep on a Dask cluster, with a summary"),
+    "generate": ("authoring.commands.generate", "write a random valid world and crowd scenario (tests, benchmarks)"),
 }
 
 

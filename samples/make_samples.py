@@ -46,7 +46,7 @@ from crowd_samples.rooms import rooms_scenario, rooms_world  # noqa: E402
 from crowd_samples.scenario_file import scenario_toml  # noqa: E402
 from crowd_samples.spell import SPELL_STAGGER, letter_points, spell_scenario  # noqa: E402
 from crowd_samples.theater import theater_scenario, theater_world  # noqa: E402
-from crowd_samples.world_stage import WorldBuilder  # noqa: E402
+from usd_io.world_writer import WorldBuilder  # noqa: E402
 
 __all__ = ["SAMPLES", "BUILDERS", "main", "scenario_toml", "WorldBuilder", "min_spacing", "MEET_GROUPS",
            "meet_scenario", "letter_points", "SPELL_STAGGER", "spell_scenario", "rooms_world", "rooms_scenario",

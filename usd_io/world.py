@@ -50,7 +50,7 @@ from runtime.crowd.geometry import (GeometryError, convex_hull, footprint_capsul
                                     footprint_cylinder, footprint_points, footprint_sphere, polygon_area,
                                     units_matrix)
 
-__all__ = ["WorldError", "WorldItem", "WorldIssue", "read_world", "read_world_report", "world_units",
+__all__ = ["WorldError", "WorldItem", "WorldIssue", "read_world", "read_world_report", "read_world_stage", "world_units",
            "ROLE_ATTR", "EXTENT_ATTR", "OBSTACLES_PATH", "ROLES"]
 
 ROLE_ATTR = "crowdweave:role"
@@ -372,12 +372,15 @@ def read_world_report(path):
     :class:`WorldIssue` (prims not used, with the reason; ``error`` False for warnings).
     Raises :class:`WorldError` only when the file itself cannot be read.
     """
-    stage = _open(path)
-    r = _Reader(stage, str(path))
-    r.issues.extend(_composition_issues(stage, str(path)))
+    return _stage_report(_open(path), str(path))
+
+
+def _stage_report(stage, path: str):
+    r = _Reader(stage, path)
+    r.issues.extend(_composition_issues(stage, path))
     r.visit(stage.GetPseudoRoot(), False, False)
     if not r.found and not any(i.error for i in r.issues):
-        r.issues.append(WorldIssue(str(path), f"found no obstacles and no markers (obstacles go under {OBSTACLES_PATH} "
+        r.issues.append(WorldIssue(path, f"found no obstacles and no markers (obstacles go under {OBSTACLES_PATH} "
                                    f"or carry {ROLE_ATTR} = \"obstacle\")", error=False))
     return r.environment(), r.found, r.issues
 
@@ -385,7 +388,17 @@ def read_world_report(path):
 def read_world(path) -> Environment:
     """The :class:`Environment` of a world stage; :class:`WorldError` (naming the file and the
     first offending prim, and how many more problems there are) if anything in it is unusable."""
-    env, _, issues = read_world_report(path)
+    return _usable(path, read_world_report(path))
+
+
+def read_world_stage(stage: Usd.Stage, name: str = "<stage>") -> Environment:
+    """:func:`read_world` of a stage already open (e.g. one built in memory); ``name`` stands
+    for the file in error messages."""
+    return _usable(name, _stage_report(stage, name))
+
+
+def _usable(path, report) -> Environment:
+    env, _, issues = report
     errors = [i for i in issues if i.error]
     if errors:
         first = errors[0]

@@ -361,24 +361,35 @@ def with_prefix(idle: Track | None, res):
                    start_frame=idle.start_frame)
 
 
-def _resolve_goal(ctx, results, ci, gi, gs, arrivals):
-    """The :class:`Goal` of scenario goal ``gs`` (window including its ``after`` constraint)."""
+def _resolve_goal(ctx, results, ci, gi, gs, arrivals, warnings):
+    """The :class:`Goal` of scenario goal ``gs`` (window including its ``after`` constraint;
+    when the other character gave that goal up, the constraint is dropped with a warning)."""
     sc, fps = ctx.sc, ctx.fps
     c = sc.characters[ci]
     window = gs.time
     if gs.after is not None:
         other = sc.character(gs.after["character"])
         oi = sc.characters.index(other)
-        t_other = (results[oi].arrivals[gs.after["goal"]] / fps) if oi != ci else arrivals[gs.after["goal"]] / fps
+        reached = results[oi].arrivals if oi != ci else arrivals
+        k = gs.after["goal"]
+        if k >= len(reached):
+            warnings.append(f"{c.name} goal {gi}: its 'after' constraint is dropped: {other.name} gave goal {k} up")
+            return Goal(np.asarray(gs.position, float), gs.heading, _pose_nodes(ctx, c, gi, gs), window,
+                        label=gs.pose or "")
+        t_other = reached[k] / fps
         w = (t_other + gs.after["within"][0], t_other + gs.after["within"][1])
         window = w if window is None else (max(w[0], window[0]), min(w[1], window[1]))
         if window[1] < window[0]:
             raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: its time window and "
                                 f"'after' window do not overlap")
+    return Goal(np.asarray(gs.position, float), gs.heading, _pose_nodes(ctx, c, gi, gs), window, label=gs.pose or "")
+
+
+def _pose_nodes(ctx, c, gi, gs):
     nodes = ctx.graph.nodes_with_label(gs.pose) if gs.pose else None
     if nodes is not None and len(nodes) == 0:
-        raise ScenarioError(f"{sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
-    return Goal(np.asarray(gs.position, float), gs.heading, nodes, window, label=gs.pose or "")
+        raise ScenarioError(f"{ctx.sc.path}: character {c.name!r} goal {gi}: pose {gs.pose!r} not in the library")
+    return nodes
 
 
 def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False, give_up: bool = True) -> GoalsPlan:
@@ -405,7 +416,7 @@ def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False,
     iters = 0
     waiting = False
     for gi, gs in enumerate(c.goals):
-        goal = _resolve_goal(ctx, results, ci, gi, gs, arrivals)
+        goal = _resolve_goal(ctx, results, ci, gi, gs, arrivals, warnings)
         goals.append(goal)
         # after its last goal a character stands there to the end: that must be clear too
         planner.hold = (lambda r: hold_tail(lib, graph, r.end, n_total)) if gi == len(c.goals) - 1 else None

@@ -8,7 +8,7 @@ import numpy as np
 
 from .geometry import position
 from .scenario_file import readme_text, write_sample
-from .world_stage import WorldBuilder
+from usd_io.world_writer import WorldBuilder
 
 __all__ = ["WALK_SPEED", "FETCH_SEAT_X", "FETCH_ROWS", "FETCH_DOORS", "FETCH_ROUND_SLACK", "FETCH_GAP",
            "FETCH_LANES", "FETCH_PICK_X", "FETCH_CARRY", "FETCH_ROOM_B", "fetch_world", "fetch_boxes",

@@ -5,7 +5,7 @@ import numpy as np
 
 from .geometry import heading_deg, position
 from .scenario_file import readme_text, write_sample
-from .world_stage import WorldBuilder
+from usd_io.world_writer import WorldBuilder
 
 __all__ = ["ROOMS_DOOR", "rooms_world", "ROOM_POINTS", "rooms_scenario", "build"]
 

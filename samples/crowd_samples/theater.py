@@ -5,7 +5,7 @@ import numpy as np
 
 from .geometry import position
 from .scenario_file import readme_text, write_sample
-from .world_stage import WorldBuilder
+from usd_io.world_writer import WorldBuilder
 
 __all__ = ["SEAT_X", "ROW_PITCH", "ROW_Z", "RAIL_HALF_WIDTH", "THEATER_DOORS", "THEATER_GAP", "theater_world",
            "theater_scenario", "build"]
