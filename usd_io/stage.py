@@ -12,6 +12,7 @@ binary crate, ``.usd`` crate (USD's default).
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from pxr import Sdf, Tf, Usd, UsdGeom
@@ -78,6 +79,27 @@ def set_default_prim(stage: Usd.Stage, prim) -> None:
     stage.SetDefaultPrim(prim)
 
 
+def usd_error_text(e) -> str:
+    """The first message of a USD error, without the C++ context around it, on one line
+    (``line 3, column 3: Expected } ...`` for a syntax error)."""
+    msgs = [m.split(" : '", 1)[1].strip().rstrip("'").strip() for m in str(e).split("Error in ")[1:] if " : '" in m]
+    first = msgs[0] if msgs else str(e)
+    first = re.sub(r"^\S*?:(\d+):(\d+): ", r"line \1, column \2: ", first)
+    return " ".join(first.split())[:300]
+
+
+def open_usd_file(p: Path, error=StageError, unreadable: str = "cannot open as a USD stage") -> Usd.Stage:
+    """Open the USD file ``p``; a file USD cannot read raises ``error(p, reason)`` with
+    ``unreadable`` and USD's first message."""
+    try:
+        stage = Usd.Stage.Open(str(p))
+    except Tf.ErrorException as e:
+        raise error(p, f"{unreadable}: {usd_error_text(e)}") from None
+    if stage is None:
+        raise error(p, unreadable)
+    return stage
+
+
 def open_stage(stage_or_path) -> Usd.Stage:
     """Return ``stage_or_path`` if it is a stage, else open the file (StageError if that fails)."""
     if isinstance(stage_or_path, Usd.Stage):
@@ -85,13 +107,7 @@ def open_stage(stage_or_path) -> Usd.Stage:
     p = Path(stage_or_path)
     if not p.is_file():
         raise StageError(p, "file not found")
-    try:
-        stage = Usd.Stage.Open(str(p))
-    except Tf.ErrorException as e:
-        raise StageError(p, f"cannot open as a USD stage: {str(e).strip()}") from None
-    if stage is None:
-        raise StageError(p, "cannot open as a USD stage")
-    return stage
+    return open_usd_file(p)
 
 
 def export_layer(layer: Sdf.Layer, path: str) -> None:

@@ -43,12 +43,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom
 
 from runtime.crowd.environment import MARKER_ROLES, Environment, Marker
 from runtime.crowd.geometry import (GeometryError, convex_hull, footprint_capsule, footprint_cube,
                                     footprint_cylinder, footprint_points, footprint_sphere, polygon_area,
                                     units_matrix)
+
+from .stage import open_usd_file
 
 __all__ = ["WorldError", "WorldItem", "WorldIssue", "read_world", "read_world_report", "read_world_stage", "world_units",
            "ROLE_ATTR", "EXTENT_ATTR", "OBSTACLES_PATH", "ROLES"]
@@ -102,15 +104,6 @@ _ROUND_GPRIMS = ((UsdGeom.Cylinder, footprint_cylinder, "radius", "radius"),
                  (UsdGeom.Capsule_1, footprint_capsule, "radiusBottom", "radiusTop"))
 
 
-def _usd_error(e) -> str:
-    """The first message of a USD error, without the C++ context around it, on one line
-    (``line 3, column 3: Expected } ...`` for a syntax error)."""
-    msgs = [m.split(" : '", 1)[1].strip().rstrip("'").strip() for m in str(e).split("Error in ")[1:] if " : '" in m]
-    first = msgs[0] if msgs else str(e)
-    first = re.sub(r"^\S*?:(\d+):(\d+): ", r"line \1, column \2: ", first)
-    return " ".join(first.split())[:300]
-
-
 def _open(path) -> Usd.Stage:
     p = Path(path)
     if not p.exists():
@@ -119,13 +112,7 @@ def _open(path) -> Usd.Stage:
         raise WorldError(p, "not a file")
     if p.suffix.lower() not in USD_SUFFIXES:
         raise WorldError(p, f"not a USD file (extension {p.suffix or 'none'!r}; expected {', '.join(USD_SUFFIXES)})")
-    try:
-        stage = Usd.Stage.Open(str(p))
-    except Tf.ErrorException as e:
-        raise WorldError(p, f"not a readable USD file: {_usd_error(e)}") from None
-    if stage is None:
-        raise WorldError(p, "not a readable USD file")
-    return stage
+    return open_usd_file(p, WorldError, "not a readable USD file")
 
 
 def world_units(stage_or_path):

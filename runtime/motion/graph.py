@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, pack_fields, save_pack
+from ..assets import AssetError, pack_fields, save_pack
 from .clip import Clip
 from .fk import end_site_positions, forward_kinematics
-from .skeleton import Skeleton, pop_skeleton_and_fps
+from .skeleton import Skeleton, load_motion_pack
 
 __all__ = ["MotionGraph", "PACK_KIND", "PACK_VERSION", "STATES", "edge_tables"]
 
@@ -172,10 +172,8 @@ class MotionGraph:
 
     @classmethod
     def load(cls, path) -> "MotionGraph":
-        pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
+        pk, meta, sk, fps = load_motion_pack(path, PACK_KIND, PACK_VERSION, "motion graph pack is inconsistent")
         with pack_fields(path, "motion graph pack is inconsistent"):
-            meta = dict(pk.meta)
-            sk, fps = pop_skeleton_and_fps(meta)
             node_labels = meta.pop("node_labels")
             edge_labels = meta.pop("edge_labels")
             meta.pop("states", None)

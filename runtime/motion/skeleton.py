@@ -10,7 +10,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Skeleton", "SkeletonMismatchError", "KNOWN_FAMILIES", "pop_skeleton_and_fps"]
+from ..assets import load_pack, pack_fields
+
+__all__ = ["Skeleton", "SkeletonMismatchError", "KNOWN_FAMILIES", "pop_skeleton_and_fps", "load_motion_pack"]
 
 
 class SkeletonMismatchError(ValueError):
@@ -126,6 +128,16 @@ def pop_skeleton_and_fps(meta: dict) -> tuple:
     """(Skeleton, fps) taken out of a pack's ``meta`` (the ``skeleton`` and ``fps`` keys every
     pack of posed motion carries)."""
     return Skeleton.from_dict(meta.pop("skeleton")), float(meta.pop("fps"))
+
+
+def load_motion_pack(path, kind: str, version: int, what: str) -> tuple:
+    """A pack of posed motion: (the loaded pack, its meta without the skeleton and fps,
+    Skeleton, fps); a bad skeleton or fps is an AssetError naming ``path`` and ``what``."""
+    pk = load_pack(path, kind=kind, version=version)
+    with pack_fields(path, what):
+        meta = dict(pk.meta)
+        sk, fps = pop_skeleton_and_fps(meta)
+    return pk, meta, sk, fps
 
 
 def _register(name: str, names, parents):

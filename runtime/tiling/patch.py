@@ -46,10 +46,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..assets import AssetError, load_pack, pack_fields, save_pack
+from ..assets import AssetError, pack_fields, save_pack
 from ..motion.fk import end_site_positions, forward_kinematics
 from ..motion.planar import rotate_xz, wrap_angle
-from ..motion.skeleton import Skeleton, pop_skeleton_and_fps
+from ..motion.skeleton import Skeleton, load_motion_pack
 
 __all__ = ["Fragment", "Constraint", "Port", "Patch", "PatchLibrary", "single_character_patches",
            "fragment_boxes", "PACK_KIND", "PACK_VERSION"]
@@ -343,10 +343,8 @@ class PatchLibrary:
 
     @classmethod
     def load(cls, path) -> "PatchLibrary":
-        pk = load_pack(path, kind=PACK_KIND, version=PACK_VERSION)
+        pk, meta, sk, fps = load_motion_pack(path, PACK_KIND, PACK_VERSION, "motion patch pack is missing a field")
         with pack_fields(path, "motion patch pack is missing a field"):
-            meta = dict(pk.meta)
-            sk, fps = pop_skeleton_and_fps(meta)
             P = int(meta.pop("num_patches"))
             names = meta.pop("patch_names")
             labels = meta.pop("patch_labels")
