@@ -29,7 +29,7 @@ Under each size, a line per crowd kind gives the characters that fail and why: `
 several causes.
 
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_sweep.py [--quick] [--sizes 60x20,150x5]
-        [--seeds 0-4] [--kind mixed] [--jobs 1] [--csv out.csv]
+        [--seeds 0-4] [--kind mixed] [--jobs 1] [--csv out.csv] [--policy reserve_starts=all ...]
 
 ``--quick``: 3 scenarios of 30 characters. ``--jobs 1`` (default) plans one scenario at a time
 so that timings are clean (the machine's other work still shows). Figures only, no asserts.
@@ -89,7 +89,7 @@ def character_causes(report, name) -> set:
     return causes
 
 
-def run_one(characters: int, seed: int, kind: str) -> dict:
+def run_one(characters: int, seed: int, kind: str, policy: dict | None = None) -> dict:
     """Generate, plan and check one scenario; the figures as a dict (picklable)."""
     from authoring.roadmap import build_roadmap
     from authoring.scenario_gen import generate_scenario
@@ -102,7 +102,8 @@ def run_one(characters: int, seed: int, kind: str) -> dict:
     roadmap = build_roadmap(gen.env, seed=0)
     setup = time.perf_counter() - t0
     cpu = time.process_time()
-    res = plan_scenario(sc, graph, gen.env, roadmap)
+    from runtime.crowd.planner import CrowdPolicy
+    res = plan_scenario(sc, graph, gen.env, roadmap, policy=CrowdPolicy(**(policy or {})))
     cpu = time.process_time() - cpu
     report = check_crowd(sc, {c.name: c.track for c in res.characters}, graph, gen.env, res.fps)
     s = report.summary()
@@ -213,7 +214,22 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="3 scenarios of 30 characters")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1: clean timings)")
     ap.add_argument("--csv", default=None, help="also write one row per scenario to this CSV file")
+    ap.add_argument("--policy", nargs="*", default=[], metavar="FIELD=VALUE",
+                    help="CrowdPolicy fields to set, e.g. reserve_starts=all order=longest passes=2")
     args = ap.parse_args(argv)
+    policy = {}
+    from runtime.crowd.planner import CrowdPolicy
+    fields = CrowdPolicy.__dataclass_fields__
+    for item in args.policy:
+        key, _, value = item.partition("=")
+        if key not in fields or not value:
+            ap.error(f"--policy: {item!r} is not FIELD=VALUE with a CrowdPolicy field ({', '.join(fields)})")
+        default = getattr(CrowdPolicy(), key)
+        try:
+            policy[key] = (value.lower() in ("1", "true", "yes") if isinstance(default, bool)
+                           else type(default)(value) if isinstance(default, (int, float)) else value)
+        except ValueError:
+            ap.error(f"--policy: {key} must be a {type(default).__name__}, got {value!r}")
     try:
         sizes = parse_sizes("30x3" if args.quick else args.sizes)
         seeds = parse_seeds(args.seeds) if args.seeds else None
@@ -221,7 +237,7 @@ def main(argv=None) -> int:
         ap.error("--sizes is like 60x20,150x5 and --seeds like 0-4 or 3,7")
     from authoring.default_library import ensure_library
     ensure_library("default", log=lambda m: print(m, file=sys.stderr), progress=False)
-    print(f"goal-directed crowds on generated scenarios (kind {args.kind}); planner: "
+    print(f"goal-directed crowds on generated scenarios (kind {args.kind}; policy {policy or 'default'}); planner: "
           f"runtime.crowd.scheduler.plan_scenario, checker: runtime.crowd.checker.check_crowd; jobs {args.jobs}")
     print(HEAD)
     print("-" * len(HEAD))
@@ -233,10 +249,10 @@ def main(argv=None) -> int:
             rows = []
             if pool is None:
                 for s in todo:
-                    rows.append(run_one(n, s, args.kind))
+                    rows.append(run_one(n, s, args.kind, policy))
                     print(scenario_row(rows[-1]), flush=True)
             else:
-                futures = [pool.submit(run_one, n, s, args.kind) for s in todo]
+                futures = [pool.submit(run_one, n, s, args.kind, policy) for s in todo]
                 for f in as_completed(futures):
                     rows.append(f.result())
                     print(scenario_row(rows[-1]), flush=True)

@@ -102,3 +102,33 @@ def test_the_world_never_plays_a_colliding_plan(default_graph):
     assert any(e.character == "goes" for e in warnings), [e.data for e in warnings]
     msg = next(e.data["message"] for e in warnings if e.character == "goes")
     assert "clear of everyone" in msg
+
+
+def test_held_starts_give_way_to_a_swap_of_places(default_graph, monkeypatch):
+    """Starts are held until their characters are planned (reserve_starts "all"), but not
+    against a character whose goal is that start: two characters swapping places both arrive,
+    clean and clear of each other in one pass; holding every start blindly, the first one does
+    not arrive within the scenario."""
+    from runtime.crowd.planner import CrowdPolicy
+    from runtime.crowd.scheduler import goal_holds
+    sc = parse_scenario({"name": "swap", "duration": 20.0, "seed": 0, "synthesis": {"passes": 1}, "character": [
+        {"name": "a", "start": {"position": [0.0, 0.0], "heading": 90.0}, "goal": [{"position": [6.0, 0.0]}]},
+        {"name": "b", "start": {"position": [6.0, 0.0], "heading": -90.0}, "goal": [{"position": [0.0, 0.0]}]}]})
+    res = plan_scenario(sc, default_graph, policy=CrowdPolicy(reserve_starts="all"))
+    rep = check_crowd(sc, {c.name: c.track for c in res.characters}, default_graph)
+    assert rep.passed and not rep.character_overlaps
+    assert all(not c.ladder or c.ladder[0].keeps_constraints for c in res.characters)
+    # the same with every start held blindly: the first one planned cannot arrive within the
+    # scenario (a repair pass would plan it again once the other has left)
+    import runtime.crowd.scheduler as scheduler
+    monkeypatch.setattr(scheduler, "goal_holds", lambda ctx, ci, holds: [])
+    blind = plan_scenario(sc, default_graph, policy=CrowdPolicy(reserve_starts="all"))
+    assert blind.characters[0].warnings
+    monkeypatch.undo()
+
+    class Ctx:        # what goal_holds reads
+        pass
+    ctx = Ctx()
+    ctx.sc, ctx.lib, ctx.params = sc, type("L", (), {"max_radius": 0.5})(), type("P", (), {"margin": 0.02})()
+    far = {1: (None, np.array([[6.0, 0.0]]), 0.4), 2: (None, np.array([[3.0, 3.0]]), 0.4)}
+    assert goal_holds(ctx, 0, far) == [1]

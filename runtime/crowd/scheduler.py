@@ -108,15 +108,25 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
     order = crowd_order(sc, policy.order)
+    holds = {}
     for ci in order:
         hold, radius = start_hold(ctx, sc.characters[ci])
         if hold:
-            ctx.index.insert(ci, np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0), radius)
+            holds[ci] = (np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0), radius)
+            ctx.index.insert(ci, *holds[ci])
     results: dict[int, CharacterResult] = {}
     for ci in order:
-        ctx.index.remove_owner(ci)          # its seat hold (if any) gives way to its plan
+        ctx.index.remove_owner(ci)          # its start hold (if any) gives way to its plan
+        holds.pop(ci, None)
+        # holds on the character's own goals give way while it is planned (a swap of places):
+        # the one holding there, planned later, leaves before it arrives
+        freed = goal_holds(ctx, ci, holds)
+        for j in freed:
+            ctx.index.remove_owner(j)
         results[ci] = plan_one(ctx, results, ci, 0)
         ctx.insert(ci, results[ci].track)
+        for j in freed:
+            ctx.index.insert(j, *holds[j])
         if progress:
             progress(1)
     k = 1
@@ -175,7 +185,8 @@ def plan_one(ctx: PlanContext, results, ci: int, k: int, attempt: int = 0, give_
     one where it can stand still and wait (for "stand": a walking hub and a standing node) --
     is planned from the first (``start_still``: the second; unset: the second when the
     character has time to wait, :func:`time_to_wait`); if that plan has warnings, it is
-    planned again from the other, and the plan with fewer warnings is kept."""
+    planned again from the other (without the ladder's rungs that give a constraint up), and
+    the plan with fewer warnings is kept."""
     sc, graph, policy = ctx.sc, ctx.graph, ctx.policy
     c = sc.characters[ci]
     t0 = time.perf_counter()
@@ -190,7 +201,9 @@ def plan_one(ctx: PlanContext, results, ci: int, k: int, attempt: int = 0, give_
         if k or attempt:
             extra = [a, attempt]
         rng = np.random.default_rng([int(sc.seed), int(ci), int(k)] + extra)
-        out = plan_goals(ctx, results, ci, node, rng, retry=bool(a or attempt), give_up=give_up)
+        # the other start node is only worth it for a plan that keeps every constraint: its
+        # ladder stops before the rungs that give one up (the first plan already has those)
+        out = plan_goals(ctx, results, ci, node, rng, retry=bool(a or attempt), give_up=give_up and a == 0)
         iters += out.iterations
         if best is None or _badness(out) < _badness(best):
             best = out
@@ -252,6 +265,21 @@ def start_hold(ctx: PlanContext, c) -> tuple[int, float]:
     if mode == "needed" or seated:
         return min(seat_hold(c, ctx.graph, ctx.fps, standing=not seated), ctx.n_total), radius
     return 0, radius
+
+
+def goal_holds(ctx: PlanContext, ci: int, holds: dict) -> list:
+    """The characters in ``holds`` whose held start is where character ``ci`` must arrive: within
+    the two bounding cylinders (and the margin) of one of its goal positions."""
+    goals = [g.position for g in ctx.sc.characters[ci].goals if g.position is not None]
+    if not goals or not holds:
+        return []
+    goals = np.asarray(goals, float)
+    reach = ctx.lib.max_radius + ctx.params.margin
+    out = []
+    for j, (_, xz, radius) in holds.items():
+        if np.min(np.hypot(*(goals - xz[0]).T)) < reach + radius:
+            out.append(j)
+    return out
 
 
 def standing_radius(graph, still) -> float:

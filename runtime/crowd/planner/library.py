@@ -146,7 +146,7 @@ class MotionLibrary:
             return idx
 
         distinct(first, tr)
-        for level in range(1, clips + 1):
+        for _ in range(clips):
             cnt = ptr[first + 1] - ptr[first]
             if cnt.sum() == 0:
                 break

@@ -92,7 +92,7 @@ class CrowdPolicy:
     #                                a walking hub); None: per character, still first when its first
     #                                goal's window opens more than ``wait_slack`` s after it could walk there
     wait_slack: float = 3.0        # s (see start_still)
-    reserve_starts: str = "none"   # characters' starts held until they are planned: "none" (seated
+    reserve_starts: str = "all"    # characters' starts held until they are planned: "none" (seated
     #                                starts while they need not leave), "needed" (any start while
     #                                it need not leave), "all" (any start, the whole scenario)
     reuse_motions: bool = True     # a motion found for one character is tried first for the next

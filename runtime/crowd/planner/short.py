@@ -95,7 +95,7 @@ def short_move(search, travel: int, max_accept: int = 6):
         T = dur[parent] + lib.dur[e]
         node = g.edge_dst[e]
         best_raw = np.full(len(F), np.inf)
-        found = []                                   # (cost, row, ending index, node)
+        found = []                                   # per node: (costs, rows, endings) below eps
         for n in np.unique(node):
             if int(n) not in ends_of:
                 continue
@@ -105,9 +105,12 @@ def short_move(search, travel: int, max_accept: int = 6):
             cost, raw = _joined_costs(p.alpha, end[rr], T[rr], goal, search.window_rel, Tn, Dn)
             best_raw[rr] = raw.min(axis=1)
             r_ok, k_ok = np.nonzero(cost <= eps_p)
-            found += [(cost[a, b], rr[a], E[b]) for a, b in zip(r_ok, k_ok)]
-        found.sort(key=lambda t: t[0])
-        for _, r, ending in found[:max_accept]:
+            if len(r_ok):
+                found.append((cost[r_ok, k_ok], rr[r_ok], E[k_ok]))
+        if found:
+            fc, fr, fe = (np.concatenate(x) for x in zip(*found))
+            best = np.argsort(fc, kind="stable")[:max_accept]
+        for r, ending in ([] if not found else zip(fr[best], fe[best])):
             full = np.concatenate([F[r], ending[ending >= 0]])
             Fr = full[None]
             c, i, j = search.costs(Fr, np.array([len(full)]), B, np.zeros(1, dtype=np.int64))
