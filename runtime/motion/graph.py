@@ -82,14 +82,17 @@ class MotionGraph:
     # -- sizes -----------------------------------------------------------------------------
     @property
     def num_nodes(self) -> int:
+        """Hub poses: where clips meet."""
         return len(self.node_height)
 
     @property
     def num_edges(self) -> int:
+        """Clips between hubs."""
         return len(self.edge_src)
 
     @property
     def total_seconds(self) -> float:
+        """Seconds of motion in all clips."""
         return float(self.edge_duration.sum())
 
     # -- queries ------------------------------------------------------------------------------
