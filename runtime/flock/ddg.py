@@ -159,17 +159,9 @@ class DDG:
             bad("edge_src", f"node {int(np.argmin(out_deg))} has no outgoing edge (dead end)")
 
     # ---------------------------------------------------------------- sizes
-    @property
-    def n_agents(self) -> int:
-        return self.frames.shape[1]
-
-    @property
-    def n_nodes(self) -> int:
-        return len(self.node_frame)
-
-    @property
-    def n_edges(self) -> int:
-        return len(self.edge_src)
+    n_agents = property(lambda self: self.frames.shape[1], doc="Agents in the recording.")
+    n_nodes = property(lambda self: len(self.node_frame), doc="Nodes (recorded frames kept).")
+    n_edges = property(lambda self: len(self.edge_src), doc="Edges between nodes.")
 
     @property
     def n_transitions(self) -> int:

@@ -138,34 +138,13 @@ class InteractiveTiling:
         self.last_tick_ms = 0.0
 
     # -- the clock and the characters -------------------------------------------------------------
-    @property
-    def t(self) -> float:
-        """The clock (s)."""
-        return self.tick.t
-
-    @property
-    def frame(self) -> int:
-        """The clock frame."""
-        return self.tick.frame
-
-    @property
-    def n(self) -> int:
-        """Number of characters."""
-        return self.roster.n
-
-    @property
-    def team(self) -> np.ndarray:
-        return self.roster.team
-
-    @property
-    def tail_time(self) -> np.ndarray:
-        """Per character, the time its committed motion reaches."""
-        return self.roster.tail_time
-
-    @property
-    def targets(self) -> dict:
-        """Team -> (target position, formation spacing)."""
-        return self.roster.targets
+    t = property(lambda self: self.tick.t, doc="The clock (s).")
+    frame = property(lambda self: self.tick.frame, doc="The clock frame.")
+    n = property(lambda self: self.roster.n, doc="Number of characters.")
+    team = property(lambda self: self.roster.team, doc="Per character, its team.")
+    tail_time = property(lambda self: self.roster.tail_time,
+                         doc="Per character, the time its committed motion reaches.")
+    targets = property(lambda self: self.roster.targets, doc="Team -> (target position, formation spacing).")
 
     def set_target(self, team: int, position, spacing: float | None = None) -> None:
         """Steer a team: candidates that leave its characters nearer their spot are preferred.
