@@ -11,6 +11,8 @@ import numpy as np
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from authoring.batch.toml_text import inline_value
+from authoring.batch.toml_text import key as toml_key
 from runtime.crowd.environment import Environment, Marker
 from runtime.crowd.scenario import ScenarioError, load_scenario, parse_scenario, prim_name
 from runtime.limits import MAX_CHARACTER_SECONDS, MAX_DURATION
@@ -97,25 +99,6 @@ def edited(draw):
     return doc
 
 
-def _key(k):
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
-
-
-def toml(v) -> str:
-    """A minimal TOML writer (inline tables and arrays) for the fuzzed documents."""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(toml(x) for x in v) + "]"
-    return "{" + ", ".join(f"{_key(k)} = {toml(x)}" for k, x in v.items()) + "}"
-
-
 def _check_accepted(sc):
     assert 0 < sc.duration <= MAX_DURATION and math.isfinite(sc.duration)
     assert isinstance(sc.seed, int) and sc.seed >= 0
@@ -165,7 +148,7 @@ def test_edited_scenarios_are_accepted_clean_or_rejected_naming_the_place(doc):
 def test_scenario_files_from_edited_text(tmp_path_factory, doc, cut, junk):
     """The same through the file: TOML written from the edited document, sometimes cut short or
     with junk appended (syntax errors, duplicate keys, bad UTF-8); errors name the file."""
-    text = "\n".join(f"{_key(k)} = {toml(v)}" for k, v in doc.items()) + "\n"
+    text = "\n".join(f"{toml_key(k)} = {inline_value(v)}" for k, v in doc.items()) + "\n"
     if cut is not None:
         text = text[:cut]
     p = tmp_path_factory.mktemp("s") / "scenario.toml"

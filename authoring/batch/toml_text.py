@@ -11,21 +11,27 @@ from __future__ import annotations
 import math
 import re
 
-__all__ = ["dumps"]
+__all__ = ["dumps", "inline_value", "key"]
 
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
-def _key(k: str) -> str:
+_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t", "\r": "\\r", "\b": "\\b", "\f": "\\f"}
+
+
+def key(k: str) -> str:
+    """A table key: bare when it can be, else a quoted string."""
     return k if _BARE_KEY.fullmatch(k) else _string(k)
 
 
 def _string(s: str) -> str:
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
+    """A TOML basic string: quotes, backslashes and control characters escaped."""
+    out = "".join(_ESCAPES.get(ch) or (f"\\u{ord(ch):04x}" if ord(ch) < 0x20 or ord(ch) == 0x7F else ch) for ch in s)
     return f'"{out}"'
 
 
-def _scalar(v) -> str:
+def inline_value(v) -> str:
+    """A value as inline TOML text: scalars, inline tables and arrays (numpy values too)."""
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int):
@@ -39,11 +45,11 @@ def _scalar(v) -> str:
     if isinstance(v, str):
         return _string(v)
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_key(k)} = {_scalar(x)}" for k, x in v.items()) + " }"
+        return "{ " + ", ".join(f"{key(k)} = {inline_value(x)}" for k, x in v.items()) + " }"
     if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_scalar(x) for x in v) + "]"
+        return "[" + ", ".join(inline_value(x) for x in v) + "]"
     if hasattr(v, "tolist"):            # numpy scalars and arrays
-        return _scalar(v.tolist())
+        return inline_value(v.tolist())
     raise TypeError(f"cannot write a {type(v).__name__} as TOML")
 
 
@@ -55,15 +61,15 @@ def _block(table: dict, prefix: str, indent: str, lines: list) -> None:
     """Plain keys first, then sub-tables, then arrays of tables (TOML needs that order)."""
     plain = [(k, v) for k, v in table.items() if not isinstance(v, dict) and not _is_table_array(v)]
     tables = [(k, v) for k, v in table.items() if isinstance(v, dict) and prefix == ""]
-    inline = [(k, v) for k, v in table.items() if isinstance(v, dict) and prefix != ""]
+    small = [(k, v) for k, v in table.items() if isinstance(v, dict) and prefix != ""]
     arrays = [(k, v) for k, v in table.items() if _is_table_array(v)]
-    for k, v in plain + inline:
-        lines.append(f"{indent}{_key(k)} = {_scalar(v)}")
+    for k, v in plain + small:
+        lines.append(f"{indent}{key(k)} = {inline_value(v)}")
     for k, v in tables:
-        lines += ["", f"[{_key(k)}]"]
+        lines += ["", f"[{key(k)}]"]
         _block(v, k, "", lines)
     for k, v in arrays:
-        name = f"{prefix}.{_key(k)}" if prefix else _key(k)
+        name = f"{prefix}.{key(k)}" if prefix else key(k)
         inner = indent + "  " if prefix else ""
         for item in v:
             if not prefix:
