@@ -130,5 +130,5 @@ def test_held_starts_give_way_to_a_swap_of_places(default_graph, monkeypatch):
         pass
     ctx = Ctx()
     ctx.sc, ctx.lib, ctx.params = sc, type("L", (), {"max_radius": 0.5})(), type("P", (), {"margin": 0.02})()
-    far = {1: (None, np.array([[6.0, 0.0]]), 0.4), 2: (None, np.array([[3.0, 3.0]]), 0.4)}
+    far = {1: (np.array([6.0, 0.0]), 0.4, 100), 2: (np.array([3.0, 3.0]), 0.4, 100)}
     assert goal_holds(ctx, 0, far) == [1]

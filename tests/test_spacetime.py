@@ -76,3 +76,44 @@ def test_forget_before_drops_played_frames_at_compaction():
     assert np.sum(frames >= 50) == 50 * 41                   # nothing still to play is dropped
     assert np.sum(frames < 50) <= 0.5 * 50 * 41              # most played rows are gone
     assert idx.overlaps(np.array([60]), np.array([[0.0, 0.0]]), np.array([0.3]))[0]
+
+
+def test_holds_answer_like_cylinders_on_every_frame():
+    """A hold (one disc for frames [0, until)) gives the same answers as the same disc inserted
+    on each of those frames, for every query, in both the compiled and the numpy walk."""
+    from runtime.crowd import spacetime
+    from runtime.crowd.reservations import Reservations
+    rng = np.random.default_rng(3)
+    n_frames = 120
+    held = Reservations(cell=1.2, n_frames=n_frames)
+    dense = Reservations(cell=1.2, n_frames=n_frames)
+    for o in range(8):
+        f = np.arange(0, 100)
+        xz = rng.uniform(-5, 5, 2) + np.cumsum(rng.normal(0, 0.05, (100, 2)), 0)
+        held.insert(o, f, xz, 0.3)
+        dense.insert(o, f, xz, 0.3)
+    for o in range(8, 20):
+        c, until = rng.uniform(-5, 5, 2), int(rng.integers(20, n_frames))
+        held.hold(o, c, 0.35, until)
+        dense.insert(o, np.arange(until), np.repeat(c[None], until, 0), 0.35)
+    held.release_hold(9)
+    dense.remove_owner(9)
+    held.remove_owner(10)
+    dense.remove_owner(10)
+    q_f = rng.integers(0, n_frames, 400)
+    q_xz = rng.uniform(-6, 6, (400, 2))
+    for enabled in ([True, False] if spacetime.AVAILABLE else [False]):
+        old = spacetime.ENABLED
+        spacetime.ENABLED = enabled
+        try:
+            assert np.array_equal(held.overlaps(q_f, q_xz, 0.3), dense.overlaps(q_f, q_xz, 0.3))
+            assert held.overlapping_owners(q_f, q_xz, 0.3) == dense.overlapping_owners(q_f, q_xz, 0.3)
+            assert held.first_overlap(q_f, q_xz, 0.3) == dense.first_overlap(q_f, q_xz, 0.3)
+            counts = np.full(40, 10)
+            assert np.array_equal(held.any_overlap_runs(q_f, q_xz, 0.3, counts),
+                                  dense.any_overlap_runs(q_f, q_xz, 0.3, counts))
+        finally:
+            spacetime.ENABLED = old
+    for f in (0, 50, 119):
+        a, b = held.at_frame(f), dense.at_frame(f)
+        assert sorted(map(tuple, np.round(a[0], 5))) == sorted(map(tuple, np.round(b[0], 5)))

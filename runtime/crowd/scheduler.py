@@ -112,8 +112,8 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     for ci in order:
         hold, radius = start_hold(ctx, sc.characters[ci])
         if hold:
-            holds[ci] = (np.arange(hold), np.repeat(sc.characters[ci].position[None], hold, 0), radius)
-            ctx.index.insert(ci, *holds[ci])
+            holds[ci] = (np.asarray(sc.characters[ci].position, float), radius, hold)
+            ctx.index.hold(ci, *holds[ci])
     results: dict[int, CharacterResult] = {}
     for ci in order:
         ctx.index.remove_owner(ci)          # its start hold (if any) gives way to its plan
@@ -122,11 +122,11 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
         # the one holding there, planned later, leaves before it arrives
         freed = goal_holds(ctx, ci, holds)
         for j in freed:
-            ctx.index.remove_owner(j)
+            ctx.index.release_hold(j)
         results[ci] = plan_one(ctx, results, ci, 0)
         ctx.insert(ci, results[ci].track)
         for j in freed:
-            ctx.index.insert(j, *holds[j])
+            ctx.index.hold(j, *holds[j])
         if progress:
             progress(1)
     k = 1
@@ -268,18 +268,19 @@ def start_hold(ctx: PlanContext, c) -> tuple[int, float]:
 
 
 def goal_holds(ctx: PlanContext, ci: int, holds: dict) -> list:
-    """The characters in ``holds`` whose held start is where character ``ci`` must arrive: within
-    the two bounding cylinders (and the margin) of one of its goal positions."""
+    """The characters in ``holds`` ({owner: (xz, radius, until)}) whose held start is where
+    character ``ci`` must arrive: within the two bounding cylinders (and the margin) of one of
+    its goal positions."""
     goals = [g.position for g in ctx.sc.characters[ci].goals if g.position is not None]
     if not goals or not holds:
         return []
     goals = np.asarray(goals, float)
     reach = ctx.lib.max_radius + ctx.params.margin
-    out = []
-    for j, (_, xz, radius) in holds.items():
-        if np.min(np.hypot(*(goals - xz[0]).T)) < reach + radius:
-            out.append(j)
-    return out
+    owners = np.fromiter(holds.keys(), dtype=np.int64, count=len(holds))
+    xz = np.array([h[0] for h in holds.values()], dtype=np.float64).reshape(-1, 2)
+    radius = np.fromiter((h[1] for h in holds.values()), dtype=np.float64, count=len(holds))
+    d = np.hypot(xz[:, None, 0] - goals[None, :, 0], xz[:, None, 1] - goals[None, :, 1]).min(axis=1)
+    return owners[d < reach + radius].tolist()
 
 
 def standing_radius(graph, still) -> float:
