@@ -781,3 +781,42 @@ def _with(init, **overrides):
         for key, v in overrides.items():
             setattr(self, key, v)
     return patched
+
+
+def test_compiled_static_filter_and_sdf_agree_with_numpy(default_graph):
+    """The compiled static filter (reading the clearance grid directly, stopping at a pair's
+    first bad sample) and the compiled SDF lookup give the numpy paths' answers."""
+    from runtime.crowd import clearance
+    from runtime.crowd.clearance import Clearance
+    from runtime.crowd.environment import Environment
+    from runtime.crowd.planner import kernels
+    from runtime.crowd.planner.costs import pairs_static_clear
+    if not (kernels.AVAILABLE and clearance.AVAILABLE):
+        pytest.skip("numba is not installed: only the numpy paths exist")
+    g = default_graph
+    env = Environment([[[1.0, 1.0], [3.0, 1.0], [3.0, 4.0], [1.0, 4.0]]], [[-2.0, 3.0, 0.8]])
+    sdf = env.sdf(resolution=0.05, margin=2.0)
+    static = Clearance(sdf, sdf.max_error)
+    lib = MotionLibrary(g)
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(-12, 12, (5000, 2))
+    clearance.ENABLED = False
+    try:
+        slow = sdf.sample(pts)
+    finally:
+        clearance.ENABLED = True
+    np.testing.assert_allclose(sdf.sample(pts), slow, atol=1e-12)
+    P, L = 300, 14
+    F = -np.ones((P, L), np.int64)
+    B = -np.ones((P, L), np.int64)
+    nf, nb = rng.integers(1, 12, P), rng.integers(1, 12, P)
+    for p in range(P):
+        F[p, :nf[p]] = g.random_walk(int(g.edge_src[0]), nf[p], rng)
+        B[p, L - nb[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nb[p], rng)
+    i = np.array([rng.integers(0, n + 1) for n in nf])
+    j = np.array([rng.integers(L - n, L + 1) for n in nb])
+    start, goal = np.array([-1.0, -1.0, 0.4]), np.array([0.5, 6.0, 2.0])
+    fast = pairs_static_clear(lib, static, 0.02, F, B, i, j, start, goal, slack=0.1)
+    plain = pairs_static_clear(lib, lambda xz: static(xz), 0.02, F, B, i, j, start, goal, slack=0.1)
+    assert 0 < fast.sum() < P              # some pairs hit the obstacles, some do not
+    assert np.array_equal(fast, plain)

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .clearance import sample_grid
 from .geometry import BoxGrid, PolygonSet, chunk_rows, point_segment_distance_xz, polygon_area
 
 __all__ = ["Marker", "Environment", "SDFGrid", "MARKER_ROLES"]
@@ -418,6 +419,10 @@ class SDFGrid:
         p = pts.reshape(-1, 2)
         if self.env.num_obstacles == 0:
             return np.full(shape, np.inf)
+        if self.margin is not None:
+            fast = sample_grid(p, self.origin, self.resolution, self.values, self.margin)
+            if fast is not None:
+                return fast.reshape(shape)
         nx, nz = self.values.shape
         f = (p - self.origin) / self.resolution
         inside = (f[:, 0] >= 0) & (f[:, 0] <= nx - 1) & (f[:, 1] >= 0) & (f[:, 1] <= nz - 1)

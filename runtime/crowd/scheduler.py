@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..motion.graph import STATES
+from .clearance import Clearance
 from .goals import plan_goals
 from .idle import still_nodes, track_radius
 from .planner import CrowdPolicy, MotionCache, MotionLibrary, SearchParams
@@ -99,7 +100,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     n_total = int(round(sc.duration * fps)) + 1
     sdf = env.sdf(resolution=0.05, margin=2.0) if env is not None and (len(env.polygons) or len(env.circles)) else None
     # the sampled field may overestimate clearance by up to max_error: stay conservative
-    static = (lambda xz: sdf.sample(xz) - sdf.max_error) if sdf is not None else None
+    static = Clearance(sdf, sdf.max_error) if sdf is not None else None
     t_all = time.perf_counter()
     passes = max(1, int(sc.synthesis.get("passes", policy.passes)))
     ctx = PlanContext(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static,

@@ -24,6 +24,7 @@ from enum import Enum
 
 import numpy as np
 
+from ..crowd.clearance import Clearance
 from ..crowd.goals import SegmentLadder, with_prefix
 from ..crowd.idle import still_nodes
 from ..crowd.planner import (Config, CrowdPolicy, Goal, MotionCache, MotionLibrary, SearchParams, SegmentPlanner,
@@ -126,7 +127,7 @@ class CrowdSystem:
         self.static = None
         if env is not None and (len(env.polygons) or len(env.circles)):
             sdf = env.sdf(resolution=0.05, margin=2.0)
-            self.static = lambda xz: sdf.sample(xz) - sdf.max_error
+            self.static = Clearance(sdf, sdf.max_error)
         self.chars: dict[str, Character] = {}
         self.slots: list = []
         self.commands: deque = deque()

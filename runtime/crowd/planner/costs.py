@@ -129,6 +129,9 @@ def pairs_static_clear(lib: MotionLibrary, static, margin: float, F, B, i, j, st
     P = len(F)
     if static is None or P == 0:
         return np.ones(P, dtype=bool)
+    grid = getattr(static, "compiled_args", None) if kernels.ENABLED else None
+    if grid is not None:
+        return kernels.pairs_static_clear(lib, grid, margin, F, B, i, j, start, goal, slack)
     Lf, Lb = F.shape[1], B.shape[1]
     fv, bv = F >= 0, B >= 0
     # the configuration each edge starts from

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..clearance import sdf_bilinear
+
 try:  # pragma: no cover - depends on the environment
     import numba as _nb
     AVAILABLE = True
@@ -24,7 +26,7 @@ except Exception:
     _nb = None
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "ENABLED", "pair_costs", "lookahead_errors", "edge_samples"]
+__all__ = ["AVAILABLE", "ENABLED", "pair_costs", "lookahead_errors", "edge_samples", "pairs_static_clear"]
 
 ENABLED = AVAILABLE     # new planners use the kernels (set False to run the numpy paths)
 
@@ -273,3 +275,68 @@ def edge_samples(lib, edges, cfg, frames0, margin):
     _edge_samples(edges, np.asarray(cfg, np.float64), np.asarray(frames0, np.int64), lib.samp_ptr, lib.samp_frame,
                   lib.samp_off, g.frame_xz, g.frame_heading, g.frame_radius, float(margin), xz, rad, frames)
     return xz, rad, frames, cnt
+
+
+if AVAILABLE:
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading, frame_radius, need, ox, oz,
+                           res, values, gmargin, offset):  # pragma: no cover - compiled
+        ch, sh = np.cos(h), np.sin(h)
+        for s in range(samp_ptr[e], samp_ptr[e + 1]):
+            gf = samp_frame[s]
+            lx = np.float64(frame_xz[gf, 0])
+            lz = np.float64(frame_xz[gf, 1])
+            d = sdf_bilinear(x + ch * lx + sh * lz, z - sh * lx + ch * lz, ox, oz, res, values, gmargin) - offset
+            if d < np.float64(frame_radius[gf]) + need:
+                return False
+        return True
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _pairs_static_clear(F, B, i, j, start, goal, disp, samp_ptr, samp_frame, frame_xz, frame_heading,
+                            frame_radius, need, ox, oz, res, values, gmargin, offset, out):  # pragma: no cover
+        P, Lb = F.shape[0], B.shape[1]
+        for p in range(P):
+            ok = True
+            x, z, h = start[0], start[1], start[2]
+            for c in range(i[p]):
+                e = F[p, c]
+                if e < 0:
+                    continue
+                if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading, frame_radius,
+                                          need, ox, oz, res, values, gmargin, offset):
+                    ok = False
+                    break
+                ch, sh = np.cos(h), np.sin(h)
+                x, z, h = x + ch * disp[e, 0] + sh * disp[e, 1], z - sh * disp[e, 0] + ch * disp[e, 1], h + disp[e, 2]
+            if ok:
+                x, z, h = goal[0], goal[1], goal[2]
+                for c in range(Lb - 1, max(j[p], 0) - 1, -1):
+                    e = B[p, c]
+                    if e < 0:
+                        break
+                    h = h - disp[e, 2]
+                    ch, sh = np.cos(h), np.sin(h)
+                    x = x - (ch * disp[e, 0] + sh * disp[e, 1])
+                    z = z - (-sh * disp[e, 0] + ch * disp[e, 1])
+                    if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
+                                              frame_radius, need, ox, oz, res, values, gmargin, offset):
+                        ok = False
+                        break
+            out[p] = ok
+
+
+def pairs_static_clear(lib, grid_args, margin: float, F, B, i, j, start, goal, slack: float):
+    """The randomized search's static filter (:func:`runtime.crowd.planner.costs.pairs_static_clear`)
+    in one compiled loop per pair, stopping at a pair's first sample that cuts into an obstacle.
+    ``grid_args``: :attr:`runtime.crowd.clearance.Clearance.compiled_args`. Same test, with the
+    clips' configurations accumulated one after another from the start (forward part) and
+    back from the goal (backward part)."""
+    g = lib.g
+    out = np.empty(len(F), dtype=np.bool_)
+    ox, oz, res, values, gmargin, offset = grid_args
+    _pairs_static_clear(np.ascontiguousarray(F, np.int64), np.ascontiguousarray(B, np.int64),
+                        np.ascontiguousarray(i, np.int64), np.ascontiguousarray(j, np.int64),
+                        np.asarray(start, np.float64), np.asarray(goal, np.float64), lib.disp, lib.samp_ptr,
+                        lib.samp_frame, g.frame_xz, g.frame_heading, g.frame_radius, float(margin) - float(slack),
+                        ox, oz, res, values, gmargin, offset, out)
+    return out
