@@ -225,6 +225,9 @@ def main(argv=None) -> int:
         if key not in fields or not value:
             ap.error(f"--policy: {item!r} is not FIELD=VALUE with a CrowdPolicy field ({', '.join(fields)})")
         default = getattr(CrowdPolicy(), key)
+        if value.lower() == "none":
+            policy[key] = None
+            continue
         try:
             policy[key] = (value.lower() in ("1", "true", "yes") if isinstance(default, bool)
                            else type(default)(value) if isinstance(default, (int, float)) else value)

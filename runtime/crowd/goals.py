@@ -20,9 +20,11 @@ ladder, each rung reported:
 5. ``waiting`` -- give the goal (and the ones after it) up and stand where the character is,
    clear of everyone; if even that is not clear, stand at the start for the whole scenario.
 
-Rungs 0-2 keep every constraint; 3-5 give one up and add a warning. The ladder is a generator
-like the planner (:class:`SegmentLadder`), so the World runs it time-sliced too. The result says, per
-goal, which rung was used (:class:`LadderStep`).
+Rungs 0-2 keep every constraint; 3-5 give one up and add a warning. The rungs of one segment
+share a budget of search iterations (``CrowdPolicy.rung_budget``): once it is spent the goal
+is given up (waiting), so a character that cannot be planned costs a bounded amount of work.
+The ladder is a generator like the planner (:class:`SegmentLadder`), so the World runs it
+time-sliced too. The result says, per goal, which rung was used (:class:`LadderStep`).
 """
 from __future__ import annotations
 
@@ -37,7 +39,11 @@ from .scenario import ScenarioError
 from .tracks import Track, concat_tracks
 
 __all__ = ["LadderStep", "GoalsPlan", "SegmentLadder", "with_prefix", "plan_goals", "ladder_summary", "LADDER_KINDS", "clear_after", "collides_early", "lane_clear_delay",
-           "LATE_SHIFTS", "RELAXED_EPS", "LANE_RADIUS"]
+           "LATE_SHIFTS", "RELAXED_EPS", "LANE_RADIUS", "RungBudgetSpent"]
+
+class RungBudgetSpent(Exception):
+    """A segment's ladder spent ``CrowdPolicy.rung_budget`` search iterations on its rungs."""
+
 
 LATE_SHIFTS = (3.0, 8.0, 15.0)   # s the window is moved later, in turn, for a late arrival
 RELAXED_EPS = (2.0, 4.0)         # eps scales tried, in turn, for a relaxed adjustment
@@ -196,28 +202,46 @@ class SegmentLadder:
         self.n_first, self.n_retry = n_first, n_retry
         self.iterations = 0
         self.last_blockers: dict = {}
+        budget = getattr(ctx.policy, "rung_budget", None)
+        self.rung_left = None if budget is None else int(budget)   # search iterations left for the rungs
+        self.out_of_budget = False
 
-    def run(self, cfg: Config, goal: Goal, n_max=None, planner=None, waypoints=None):
-        """Generator: one segment search (time-sliced like the planner's own steps)."""
-        res = yield from (planner or self.planner).run(cfg, goal, self.rng, name=self.name,
-                                                        n_max=self.n_retry if n_max is None else n_max,
+    def run(self, cfg: Config, goal: Goal, n_max=None, planner=None, waypoints=None, rung: bool = True):
+        """Generator: one segment search (time-sliced like the planner's own steps). A rung's
+        search (``rung``) is cut to the iterations left of ``policy.rung_budget``; with none
+        left it raises :class:`RungBudgetSpent`."""
+        n = self.n_retry if n_max is None else n_max
+        if rung and self.rung_left is not None:
+            if self.rung_left <= 0:
+                self.out_of_budget = True
+                raise RungBudgetSpent(self.name)
+            n = min(n, self.rung_left)
+        res = yield from (planner or self.planner).run(cfg, goal, self.rng, name=self.name, n_max=n,
                                                         waypoints=waypoints)
         self.iterations += res.iterations
+        if rung and self.rung_left is not None:
+            self.rung_left -= max(int(res.iterations), 1)
         return res
 
     def plan(self, cfg: Config, goal: Goal, gi: int):
         """Generator (yields planner step kinds); returns (idle prefix Track or None,
         SegmentResult, LadderStep or None) -- the result is clean or within the rung reported,
         and collision-free -- or None when every rung failed."""
+        try:
+            return (yield from self._plan(cfg, goal, gi))
+        except RungBudgetSpent:
+            return None
+
+    def _plan(self, cfg: Config, goal: Goal, gi: int):
         ctx = self.ctx
         if ctx.policy.space_time_seeds:
-            out = yield from self._rerouted(cfg, goal, None, n_max=self.n_first, only_if_blocked=True)
+            out = yield from self._rerouted(cfg, goal, None, n_max=self.n_first, only_if_blocked=True, rung=False)
             if out is not None:
                 idle, res, d = out
                 step = None if idle is None else LadderStep(gi, "later departure", delay_s=d,
                                                             reason="the way is busy")
                 return idle, res, step
-        res = yield from self.run(cfg, goal, n_max=self.n_first)
+        res = yield from self.run(cfg, goal, n_max=self.n_first, rung=False)
         if not res.warning:
             return None, res, None
         first = res
@@ -290,7 +314,8 @@ class SegmentLadder:
                 return None, res2, LadderStep(gi, "relaxed", eps_factor=factor, reason=first.warning)
         return None
 
-    def _rerouted(self, cfg: Config, goal: Goal, first, n_max=None, only_if_blocked: bool = False):
+    def _rerouted(self, cfg: Config, goal: Goal, first, n_max=None, only_if_blocked: bool = False,
+                  rung: bool = True):
         """The segment planned along a route in space and time around the characters planned
         before (:func:`~runtime.crowd.planner.route.timed_route`), leaving when the route does:
         (idle Track or None, SegmentResult, delay in s) or None. ``only_if_blocked``: None when
@@ -321,7 +346,7 @@ class SegmentLadder:
             else:
                 start = Config(cfg.node, *(float(v) for v in idle.root[-1]), int(cfg.frame + len(idle) - 1))
                 pts = np.concatenate([np.array([[start.x, start.z]]), pts[1:]])
-        res = yield from self.run(start, goal, waypoints=pts, n_max=n_max)
+        res = yield from self.run(start, goal, waypoints=pts, n_max=n_max, rung=rung)
         if res.warning:
             return None
         return idle, res, 0.0 if idle is None else (len(idle) - 1) / ctx.fps
@@ -425,7 +450,8 @@ def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False,
         out = run_to_completion(seg.plan(cfg, goal, gi))
         iters += seg.iterations
         if out is None:
-            reason = f"{c.name} goal {gi}: no collision-free motion, even late or with eps relaxed"
+            reason = (f"{c.name} goal {gi}: no collision-free motion within the ladder's search budget"
+                      if seg.out_of_budget else f"{c.name} goal {gi}: no collision-free motion, even late or with eps relaxed")
             ladder.append(LadderStep(gi, "waiting", reason=reason, blocked_by=seg.last_blockers))
             warnings.append(f"{reason}; it waits in place (goal {gi}"
                             + (f" and {len(c.goals) - gi - 1} later" if gi < len(c.goals) - 1 else "") + " given up)")

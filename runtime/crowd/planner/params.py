@@ -80,6 +80,8 @@ class CrowdPolicy:
     order: str = "file"            # planning order: "file", "longest", "shortest", "earliest"
     #                                (runtime.crowd.scheduler.crowd_order)
     retry_n_max: int = 300         # search iterations of a further try at a segment that failed
+    rung_budget: int | None = 900  # search iterations all the ladder's rungs of one segment may
+    #                                spend together (runtime.crowd.goals); None: no bound
     #                                (the other start node, a later departure or arrival, repairs)
     depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all
     #                                its motions collide (from a node where one can stand still) ...
