@@ -48,8 +48,10 @@ from .crowd.tracks import evaluate_poses
 from . import pose_kernels as _kernels
 from .motion import quat
 from .motion.fk import forward_kinematics
+from .motion.footlock import FootLockModel, lock_skel_arrays
 
-__all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root", "skel_arrays"]
+__all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root", "skel_arrays",
+           "locked_joint_positions"]
 
 
 @dataclass
@@ -267,7 +269,7 @@ def _exact(graph, cur: PoseState, prev: PoseState | None, alpha):
 
 # -- baked animation arrays ----------------------------------------------------------------------
 
-def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = None):
+def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = None, lock_segments=None):
     """UsdSkel animation arrays of M frames (any mix of characters): joint translations (M, J, 3)
     float32 (the root joint's is its world position and height, the others' the rest offsets),
     local joint rotations (M, J, 4) float32 in the x-y-z-w memory order of ``GfQuatf`` (the
@@ -275,7 +277,11 @@ def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = 
 
     The arithmetic of :func:`runtime.crowd.tracks.evaluate_poses` (float32 slerp of library
     frames); ``fused`` (default: numba available) runs it as one parallel kernel
-    (:func:`runtime.pose_kernels.skel_arrays`), else as numpy passes."""
+    (:func:`runtime.pose_kernels.skel_arrays`), else as numpy passes.
+
+    ``lock_segments`` (M,) bool, True on the first frame of each character's frames, applies
+    the foot lock (:func:`runtime.motion.footlock.lock_skel_arrays`: planted feet pinned where
+    they landed; the legs' rotations and the root height change, the root path does not)."""
     fa = np.asarray(frames_a, dtype=np.int64).reshape(-1)
     fb = np.asarray(frames_b, dtype=np.int64).reshape(-1)
     ft = np.asarray(frames_t, dtype=np.float32).reshape(-1)
@@ -283,14 +289,29 @@ def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = 
     PoseState(fa, fb, ft, root).check(len(graph.frame_height))
     offsets = np.asarray(graph.skeleton.offsets, dtype=np.float64)
     if _kernels.AVAILABLE if fused is None else fused:
-        return _kernels.skel_arrays(graph.frame_rotations, graph.frame_height, offsets, fa, fb, ft, root)
-    pos, rot = evaluate_poses(graph, fa, fb, ft, root)
-    trans = np.empty(pos.shape[:1] + offsets.shape, np.float32)
-    trans[:] = offsets
-    trans[:, 0] = pos
-    q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
-    rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
+        trans, q, rootv = _kernels.skel_arrays(graph.frame_rotations, graph.frame_height, offsets, fa, fb, ft, root)
+    else:
+        pos, rot = evaluate_poses(graph, fa, fb, ft, root)
+        trans = np.empty(pos.shape[:1] + offsets.shape, np.float32)
+        trans[:] = offsets
+        trans[:, 0] = pos
+        q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
+        rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
+    if lock_segments is not None:
+        seg = np.asarray(lock_segments, dtype=bool).reshape(-1)
+        if len(seg) != len(fa):
+            raise ValueError(f"lock_segments has {len(seg)} entries for {len(fa)} frames")
+        lock_skel_arrays(FootLockModel.for_library(graph), graph.skeleton, fa, fb, ft, seg, trans, q)
     return trans, q, rootv
+
+
+def locked_joint_positions(graph, track) -> np.ndarray:
+    """Joint world positions (F, J, 3) float64 of one track as a bake writes it (foot lock
+    applied: :func:`skel_arrays` with ``lock_segments``, then forward kinematics)."""
+    seg = np.zeros(len(track), dtype=bool)
+    seg[:1] = True
+    trans, q, _ = skel_arrays(graph, track.frames_a, track.frames_b, track.frames_t, track.root, lock_segments=seg)
+    return forward_kinematics(graph.skeleton, trans[:, 0].astype(np.float64), q[..., [3, 0, 1, 2]])[1]
 
 
 # -- render-side state ---------------------------------------------------------------------------

@@ -110,10 +110,16 @@ def define_animated_specs(layer: Sdf.Layer, root_path: Sdf.Path, specifier=Sdf.S
 def pose_arrays(graph, tracks: list[Track], sv: SkelValues):
     """SkelAnimation arrays of several tracks at once, concatenated over their frames:
     translations (M, J, 3) float32 (root: world position), rotations (M, J, 4) float32 in the
-    x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg)."""
+    x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg).
+    Planted feet are locked per track (the runtime's foot lock)."""
     from runtime.pose import skel_arrays
+    lens = [len(t) for t in tracks]
+    starts = np.zeros(sum(lens), dtype=bool)
+    first = np.cumsum([0] + lens[:-1])
+    starts[first[first < len(starts)]] = True
     return skel_arrays(graph, np.concatenate([t.frames_a for t in tracks]), np.concatenate([t.frames_b for t in tracks]),
-                       np.concatenate([t.frames_t for t in tracks]), np.concatenate([t.root for t in tracks]))
+                       np.concatenate([t.frames_t for t in tracks]), np.concatenate([t.root for t in tracks]),
+                       lock_segments=starts)
 
 
 def author_samples(specs: list, times: list[float], trans, quats, rootv) -> None:
