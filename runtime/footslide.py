@@ -22,13 +22,16 @@ import re
 
 import numpy as np
 
-__all__ = ["PLANT_HEIGHT", "PLANT_VSPEED", "SLIDE_SPEED", "LIMITS", "planted_slide", "slide_summary",
-           "stage_feet", "measure_stage", "slide_passed", "slide_line"]
+__all__ = ["PLANT_HEIGHT", "PLANT_VSPEED", "SLIDE_SPEED", "LIMITS", "ENFORCED", "planted_slide", "slide_summary",
+           "stage_feet", "measure_stage", "feet_report", "slide_passed", "slide_line"]
 
 PLANT_HEIGHT = 0.05      # m above the foot's lowest point
 PLANT_VSPEED = 0.15      # m/s vertical
 SLIDE_SPEED = 0.10       # m/s: a planted frame faster than this is sliding
 LIMITS = {"mean_cm_s": 3.0, "p95_cm_s": 10.0, "sliding_share": 0.03}
+# Whether a bake over the limits fails. Off while characters waiting between goals play their
+# walking loop in place (their feet cannot be planted); the figures are printed either way.
+ENFORCED = False
 
 
 def planted_slide(toe: np.ndarray, fps: float):
@@ -79,20 +82,24 @@ def _side_joints(names):
     return np.array(out)     # (2, 4): toe, ankle, knee, hip
 
 
-def stage_feet(path) -> dict:
-    """Per skeleton prim of a stage: ``{prim path: (first time code, toe (F, 2, 3), ankle
-    (F, 2, 3), knee flexion (F, 2) radians)}`` over its joint-transform time samples."""
+def stage_feet(path, roots=None) -> dict:
+    """Per skeleton prim of a stage (only those under the SkelRoot paths ``roots`` when given):
+    ``{prim path: (first time code, toe (F, 2, 3), ankle (F, 2, 3), knee flexion (F, 2)
+    radians)}`` over its joint-transform time samples."""
     from pxr import Usd, UsdGeom, UsdSkel
     stage = Usd.Stage.Open(str(path))
     cache = UsdSkel.Cache()
     xf = UsdGeom.XformCache()
     out = {}
+    keep = None if roots is None else {str(r) for r in roots}
     for prim in stage.Traverse():
-        if not prim.IsA(UsdSkel.Root):
+        if not prim.IsA(UsdSkel.Root) or (keep is not None and str(prim.GetPath()) not in keep):
             continue
         cache.Populate(UsdSkel.Root(prim), Usd.PrimDefaultPredicate)
     for prim in stage.Traverse():
         if not prim.IsA(UsdSkel.Skeleton):
+            continue
+        if keep is not None and not any(str(a) in keep for a in prim.GetPath().GetAncestorsRange()):
             continue
         q = cache.GetSkelQuery(UsdSkel.Skeleton(prim))
         if not q:
@@ -117,18 +124,16 @@ def stage_feet(path) -> dict:
     return out
 
 
-def measure_stage(path, fps: float | None = None, under: str | None = None) -> dict:
-    """The planted-foot figures of every skeleton in a stage (or only those whose path starts
-    with ``under``): :func:`slide_summary` pooled over all feet, the lowest foot point (m), the
-    knee flexion range (degrees) and the worst character by mean slide."""
+def measure_stage(path, roots=None, fps: float | None = None) -> dict:
+    """The planted-foot figures of every skeleton in a stage (only those under the SkelRoot
+    paths ``roots`` when given): :func:`slide_summary` pooled over all feet, the lowest foot
+    point (m), the knee flexion range (degrees) and the worst character by mean slide."""
     if fps is None:
         from pxr import Usd
         fps = float(Usd.Stage.Open(str(path)).GetTimeCodesPerSecond())
-    feet = stage_feet(path)
+    feet = stage_feet(path, roots)
     speeds, lowest, flex, worst = [], np.inf, [], (None, 0.0)
     for name, (_, toe, ankle, knee) in feet.items():
-        if under and not name.startswith(under):
-            continue
         plant, v = planted_slide(toe, fps)
         speeds.append(v[plant])
         lowest = min(lowest, float(toe[..., 1].min()), float(ankle[..., 1].min()))
@@ -141,6 +146,14 @@ def measure_stage(path, fps: float | None = None, under: str | None = None) -> d
                 "knee_flexion_deg": [float(f.min()), float(f.max())] if len(f) else [0.0, 0.0],
                 "worst_character": worst[0], "worst_mean_cm_s": worst[1]})
     return out
+
+
+def feet_report(path, roots=None) -> dict:
+    """:func:`measure_stage` plus ``within_limits`` (:func:`slide_passed`), the ``limits`` and
+    whether they decide a bake (``enforced``: :data:`ENFORCED`)."""
+    f = measure_stage(path, roots)
+    f.update({"within_limits": slide_passed(f), "limits": dict(LIMITS), "enforced": ENFORCED})
+    return f
 
 
 def slide_passed(figures: dict) -> bool:

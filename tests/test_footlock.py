@@ -157,3 +157,22 @@ def test_an_unreachable_pin_lowers_the_hips_then_clamps(model):
     u = (a - h) / np.linalg.norm(a - h, axis=-1, keepdims=True)
     pole = (k - h) - np.sum((k - h) * u, -1, keepdims=True) * u
     assert np.all(pole[..., 2] > 0)                             # knees bend forward, as they were
+
+
+def test_the_measure_reads_the_feet_a_bake_wrote(default_graph, model, tmp_path):
+    from usd_io.crowd import build_crowd_stage, character_path, save_crowd_stage
+    from runtime.footslide import measure_stage, stage_feet
+    tr = _sliding_track(default_graph)
+    out = save_crowd_stage(build_crowd_stage({"walker": tr}, default_graph, 30.0), tmp_path / "w.usda")
+    (t0, toe, ankle, knee), = stage_feet(out, [character_path("walker")]).values()
+    legs = model.legs
+    np.testing.assert_allclose(toe, locked_joint_positions(default_graph, tr)[:, legs.toe], atol=1e-4)
+    plant, v = planted_slide(joint_positions(default_graph, tr)[:, legs.toe], 30.0)
+    before = slide_summary(v[plant])
+    plant, v = planted_slide(locked_joint_positions(default_graph, tr)[:, legs.toe], 30.0)
+    after = measure_stage(out)
+    assert after["planted_frames"] == slide_summary(v[plant])["planted_frames"]
+    assert np.isclose(after["mean_cm_s"], slide_summary(v[plant])["mean_cm_s"], atol=0.05)
+    assert before["mean_cm_s"] > 20 and after["mean_cm_s"] < before["mean_cm_s"] * 0.6
+    assert after["characters"] == 1 and after["lowest_foot_m"] > -0.01
+    assert stage_feet(out, ["/World/Characters/nobody"]) == {}

@@ -155,6 +155,28 @@ def bake_tilings(sc, graph, env, fps, num_frames):
     return zones, report
 
 
+def bake_feet(stage_path, tracks, zones) -> dict:
+    """Planted-foot slide of the written stage, measured by the crowd checker (crowd characters)
+    and the tiling checker (each zone's characters); empty groups are left out."""
+    from runtime.crowd.checker import check_crowd_feet
+    from runtime.tiling.check import check_tiling_feet
+    from usd_io.crowd import character_path
+    out = {}
+    if tracks:
+        out["crowd"] = check_crowd_feet(stage_path, [character_path(n) for n in tracks])
+    tiled = [character_path(n) for z in zones for n in z.tracks()]
+    if tiled:
+        out["tiled"] = check_tiling_feet(stage_path, tiled)
+    return out
+
+
+def print_feet(feet: dict) -> None:
+    from runtime.footslide import slide_line
+    for group, f in feet.items():
+        verdict = "within limits" if f["within_limits"] else ("OVER LIMITS" if f["enforced"] else "over limits")
+        print(f"feet ({group}, {f['characters']} characters): {slide_line(f)}: {verdict}")
+
+
 def _print_summary(sc, report, tiling_report, flock_report, n, t_plan, t_write, out_note, warnings):
     if tiling_report:
         for zr in tiling_report["zones"]:
@@ -173,6 +195,7 @@ def _print_summary(sc, report, tiling_report, flock_report, n, t_plan, t_write, 
     print(f"checker: adjustment within eps for {s['characters_within_eps']}/{n} characters "
           f"(max {s['max_adjust_m_s'] * 100:.2f} cm/s, {s['max_adjust_deg_s']:.2f} deg/s, {s['max_adjust_s_s']:.4f} s/s); "
           f"{s['character_overlap_pairs']} overlapping pairs, {s['obstacle_overlap_characters']} characters in obstacles")
+    print_feet(report.get("feet", {}))
     lad = report.get("ladder", {}).get("summary")
     if lad and n:
         parts = [f"{lad[k]} {k}" for k in LADDER_KINDS if lad[k]]
@@ -253,9 +276,14 @@ def run(args) -> int:
         pause_point("checking")
         # the checker reads the baked stage back (the temporary file), not the planner's objects
         report = check_crowd(sc, read_tracks(tmp) if sc.characters else {}, graph, env, result.fps).to_dict()
+        feet = bake_feet(tmp, tracks, zones)
+        report["feet"] = feet
         if tiling_report:
             report["tiling"] = tiling_report
             report["summary"]["passed"] = report["summary"]["passed"] and tiling_report["passed"]
+        for f in feet.values():
+            if f["enforced"]:
+                report["summary"]["passed"] = report["summary"]["passed"] and f["within_limits"]
         if flock_report:
             report["flocks"] = flock_report
             report["summary"]["passed"] = report["summary"]["passed"] and flock_report["passed"]

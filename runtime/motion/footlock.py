@@ -267,13 +267,22 @@ def solve_legs(model: FootLockModel, hip, knee, ankle, d, forward, max_drop: flo
     v = tgt - hip
     h2 = v[..., 0] ** 2 + v[..., 2] ** 2
     need = -v[..., 1] - np.sqrt(np.maximum(model.reach_max ** 2 - h2, 0.0))
+    # no lower than the most bent knee of the capture allows either leg (a foot is never pushed down)
+    room = -v[..., 1] - np.sqrt(np.maximum(model.reach_min ** 2 - h2, 0.0))
     moved = np.any(d != 0, axis=-1)
-    drop = np.clip(np.max(np.where(moved, need, 0.0), axis=-1), 0.0, max_drop)
+    drop = np.minimum(np.max(np.where(moved, need, 0.0), axis=-1), np.min(room, axis=-1))
+    drop = np.clip(drop, 0.0, max_drop)
     h = hip.copy()
     h[..., 1] -= drop[..., None]
+    # a pin the leg cannot reach is followed only as far as the knee's range allows
+    w = np.asarray(ankle, dtype=np.float64) - h
+    dv = np.zeros_like(w)
+    dv[..., 0], dv[..., 2] = d[..., 0], d[..., 1]
+    s = np.minimum(_reach_fraction(w, dv, model.reach_max, True), _reach_fraction(w, dv, model.reach_min, False))
+    tgt = h + w + s[..., None] * dv
     v = tgt - h
     D = np.linalg.norm(v, axis=-1)
-    Dc = np.clip(D, model.reach_min, model.reach_max)
+    Dc = np.clip(D, model.reach_min, model.reach_max)     # only poses outside the range to begin with
     u = v / np.maximum(D, 1e-12)[..., None]
     tgt = h + u * Dc[..., None]
     # knee: in the plane of the hip, the new ankle and the old knee
@@ -288,6 +297,24 @@ def solve_legs(model: FootLockModel, hip, knee, ankle, d, forward, max_drop: flo
     b = np.sqrt(np.maximum(model.thigh ** 2 - a ** 2, 0.0))
     k = h + u * a[..., None] + pole * b[..., None]
     return drop, k, tgt
+
+
+def _reach_fraction(w, dv, r, outer: bool):
+    """The largest s in [0, 1] keeping |w + s dv| <= r (``outer``) or >= r from s = 0 on
+    (1 where s = 0 itself is outside: that pose is clamped afterwards)."""
+    a = np.sum(dv * dv, axis=-1)
+    b = 2 * np.sum(w * dv, axis=-1)
+    c = np.sum(w * w, axis=-1) - r ** 2
+    disc = b * b - 4 * a * c
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if outer:          # inside at s = 0 (c <= 0): leaves the sphere at the larger root
+            root = (-b + sq) / (2 * a)
+            ok = (c <= 0) & (a > 0)
+        else:              # outside the inner sphere at s = 0: enters it at the smaller root, if ahead
+            root = (-b - sq) / (2 * a)
+            ok = (c >= 0) & (a > 0) & (disc > 0) & (root >= 0)
+    return np.where(ok, np.clip(np.nan_to_num(root, nan=1.0, posinf=1.0), 0.0, 1.0), 1.0)
 
 
 def _chain_fk(sk, joints, root_pos, lr):
