@@ -48,7 +48,8 @@ from .crowd.tracks import evaluate_poses
 from . import pose_kernels as _kernels
 from .motion import quat
 from .motion.fk import forward_kinematics
-from .motion.footlock import FootLockModel, lock_skel_arrays
+from .motion.footlock import (BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP, FootLockModel, LockState, lock_positions,
+                              lock_skel_arrays)
 
 __all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root", "skel_arrays",
            "locked_joint_positions"]
@@ -331,14 +332,22 @@ class PoseBatch:
     ``fused`` (default: when numba is available) evaluates a push and an interpolation each in
     one parallel pass per character (:mod:`runtime.pose_kernels`); ``fused=False`` runs the
     numpy passes described in the module docstring. Both compute the same float32 formula.
+
+    ``foot_lock`` (default on) pins planted feet where they landed, tick by tick, with a state
+    per character (:func:`runtime.motion.footlock.lock_positions`; in the fused path one more
+    parallel kernel): knees and feet move, the body comes down when a foot is out of reach, the
+    root path does not change. :meth:`transforms` stays the unlocked exact evaluation.
     """
 
-    def __init__(self, graph, fused: bool | None = None):
+    def __init__(self, graph, fused: bool | None = None, foot_lock: bool = True):
         self.graph = graph
         self.fused = _kernels.AVAILABLE if fused is None else bool(fused)
         if self.fused and not _kernels.AVAILABLE:
             raise RuntimeError("fused pose kernels need numba, which could not be imported")
         self.table = PoseTable.for_graph(graph)
+        self.foot_lock = bool(foot_lock)
+        self.lock_model = FootLockModel.for_library(graph) if self.foot_lock else None
+        self._lock: LockState | None = None    # per character: which feet are pinned, and where
         self.num_joints = self.table.num_joints
         self.prev: PoseState | None = None
         self.cur: PoseState | None = None
@@ -355,6 +364,7 @@ class PoseBatch:
     def reset(self) -> None:
         self.prev = self.cur = None
         self._wc = self._wp = self._d = None
+        self._lock = None
 
     def push(self, state, keep=None) -> None:
         st = _as_state(state).copy()
@@ -368,6 +378,8 @@ class PoseBatch:
         else:
             wc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
             _place(wc, st.root, wc, self._ws)
+        if self.foot_lock:
+            self._lock_feet(st, wc, keep)
         if self.cur is None or (keep is None and len(self.cur) != n):
             prev, wp = st.copy(), wc.copy()
         elif keep is None:
@@ -381,7 +393,8 @@ class PoseBatch:
             old = keep >= 0
             src = np.where(old, keep, 0)
             prev = self.cur.take(src) if len(self.cur) else st.copy()
-            wp = self._wc[:, src] if len(self.cur) else wc.copy()
+            # C order: this buffer is reused by a later push, whose numpy path writes through reshapes
+            wp = np.ascontiguousarray(self._wc[:, src]) if len(self.cur) else wc.copy()
             new = np.flatnonzero(~old)
             prev.frames_a[new] = st.frames_a[new]
             prev.frames_b[new] = st.frames_b[new]
@@ -398,6 +411,25 @@ class PoseBatch:
             self._d = None if self.fused else np.empty_like(wc)
         if not self.fused:
             np.subtract(wc, wp, out=self._d)
+
+    def _lock_feet(self, st: PoseState, wc, keep) -> None:
+        """Carry each character's lock state over (``keep`` as in :meth:`push`; new characters
+        start unlocked) and lock this tick's feet in ``wc``."""
+        n = len(st)
+        lock = self._lock
+        if lock is None or self.cur is None or (keep is None and len(lock.locked) != n):
+            lock = LockState.empty(n)
+        elif keep is not None:
+            idx = np.asarray(keep, dtype=np.int64).reshape(-1)
+            if len(idx) == n and (not len(idx) or idx.max() < len(lock.locked)):   # else push raises below
+                lock = lock.take(np.where(idx >= 0, idx, 0))
+                lock.reset(idx < 0)
+        if self.fused:
+            _kernels.foot_lock(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock,
+                               BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP)
+        else:
+            lock_positions(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock)
+        self._lock = lock
 
     def roots(self, alpha: float = 1.0) -> np.ndarray:
         """Interpolated planar roots (N, 3): x, z, heading."""

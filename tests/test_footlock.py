@@ -176,3 +176,65 @@ def test_the_measure_reads_the_feet_a_bake_wrote(default_graph, model, tmp_path)
     assert before["mean_cm_s"] > 20 and after["mean_cm_s"] < before["mean_cm_s"] * 0.6
     assert after["characters"] == 1 and after["lowest_foot_m"] > -0.01
     assert stage_feet(out, ["/World/Characters/nobody"]) == {}
+
+
+# -- the runtime: PoseBatch ------------------------------------------------------------------------------
+def _walk_states(graph, n, ticks, seed=0):
+    """Characters walking on through stretched clips, as pose states per tick (with each track)."""
+    from runtime.pose import PoseState
+    rng = np.random.default_rng(seed)
+    tracks = [_sliding_track(graph, stretch=s) for s in rng.uniform(1.05, 1.3, n)]
+    L = min(len(t) for t in tracks)
+    off = rng.uniform(-20, 20, (n, 2))
+    states = [PoseState([t.frames_a[k] for t in tracks], [t.frames_b[k] for t in tracks],
+                        [t.frames_t[k] for t in tracks], [t.root[k] + [*o, 0.0] for t, o in zip(tracks, off)])
+              for k in range(min(L, ticks))]
+    return states
+
+
+@pytest.mark.parametrize("fused", [False, True])
+def test_pose_batch_pins_planted_feet_like_the_bake(default_graph, model, fused):
+    from runtime import pose_kernels
+    from runtime.pose import PoseBatch
+    if fused and not pose_kernels.AVAILABLE:
+        pytest.skip("numba is not importable here")
+    states = _walk_states(default_graph, 5, 40)
+    locked, free = PoseBatch(default_graph, fused=fused), PoseBatch(default_graph, fused=fused, foot_lock=False)
+    toe = model.legs.toe
+    got, raw = [], []
+    for st in states:
+        locked.push(st)
+        free.push(st)
+        got.append(locked.positions(1.0)[:, toe].copy())
+        raw.append(free.positions(1.0)[:, toe].copy())
+    got, raw = np.array(got), np.array(raw)
+    plant = np.array([played_planted(model, st.frames_a, st.frames_b, st.frames_t) for st in states])
+    both = plant[1:] & plant[:-1]
+    sp = lambda p: np.linalg.norm(np.diff(p[..., [0, 2]], axis=0), axis=-1)  # noqa: E731
+    assert sp(raw)[both].mean() > 0.002 and sp(got)[both].max() < 1e-4     # metres per tick
+    # character 0 as the bake locks it (its whole track, one segment)
+    tr = Track(np.array([s.frames_a[0] for s in states]), np.array([s.frames_b[0] for s in states]),
+               np.array([s.frames_t[0] for s in states], np.float32), np.array([s.root[0] for s in states]), 0)
+    np.testing.assert_allclose(got[:, 0], locked_joint_positions(default_graph, tr)[:, toe], atol=1e-4)
+
+
+def test_pose_batch_fused_and_numpy_locks_agree_across_spawns(default_graph):
+    from runtime import pose_kernels
+    from runtime.pose import PoseBatch
+    if not pose_kernels.AVAILABLE:
+        pytest.skip("numba is not importable here")
+    states = _walk_states(default_graph, 6, 30, seed=2)
+    a, b = PoseBatch(default_graph, fused=True), PoseBatch(default_graph, fused=False)
+    for k, st in enumerate(states):
+        keep = None
+        if k == 15:                       # character 1 leaves, one arrives: [0, 2, 3, 4, 5, new]
+            keep = np.array([0, 2, 3, 4, 5, -1])
+            st = st.take([0, 2, 3, 4, 5, 1])
+        elif k > 15:
+            st = st.take([0, 2, 3, 4, 5, 1])
+        a.push(st, keep=keep)
+        b.push(st, keep=keep)
+        np.testing.assert_allclose(a.positions(0.5), b.positions(0.5), atol=1e-5)
+        if k == 15:
+            assert not a._lock.locked[5].any() or np.allclose(a._lock.res[5], 0)   # arrives unlocked
+    np.testing.assert_array_equal(a._lock.locked, b._lock.locked)

@@ -42,7 +42,7 @@ from . import quat
 from .contacts import LegJoints, clip_contacts, leg_joints, planted
 
 __all__ = ["BLEND_FRAMES", "MAX_CORRECTION", "MAX_HIP_DROP", "FootLockModel", "LockState", "library_contacts",
-           "grounded", "lock_step", "solve_legs", "lock_skel_arrays", "played_planted"]
+           "grounded", "lock_step", "solve_legs", "lock_skel_arrays", "lock_positions", "played_planted"]
 
 BLEND_FRAMES = 5          # frames over which a released foot's correction fades out
 MAX_CORRECTION = 0.30     # m: a pin further than this from the clip's foot is dragged along
@@ -427,3 +427,36 @@ def lock_skel_arrays(model: FootLockModel, sk, frames_a, frames_b, frames_t, seg
         for j, q in ((legs.hip[s], LH[:, s]), (legs.knee[s], LK[:, s]), (legs.ankle[s], LA[:, s])):
             quats[f, int(j)] = q[:, [1, 2, 3, 0]].astype(np.float32)
     trans[f, 0, 1] -= drop.astype(np.float32)
+
+
+def lock_positions(model: FootLockModel, planes: np.ndarray, frames_a, frames_b, frames_t, heading,
+                   state: LockState) -> None:
+    """The lock on one tick of joint world positions, in place: ``planes`` (3, N, J) float32
+    component planes (as :class:`runtime.pose.PoseBatch` keeps them), ``heading`` (N,) radians,
+    ``state`` the characters' :class:`LockState` (advanced by one frame). Knees and feet (the
+    ankles' subtrees) move, and the whole body comes down by the hip drop. Positions only: on
+    skeletons without toe joints the ankle is the pinned point."""
+    legs = model.legs
+    P = planes
+    pick = lambda js: np.moveaxis(P[:, :, js], 0, -1).astype(np.float64)  # noqa: E731  (N, 2, 3)
+    H, K, A = pick(legs.hip), pick(legs.knee), pick(legs.ankle)
+    toe = pick(legs.toe) if np.all(legs.toe >= 0) else A
+    plant = played_planted(model, frames_a, frames_b, frames_t)
+    d = lock_step(state, toe[..., [0, 2]], plant)
+    rows = np.flatnonzero(np.any(d != 0, axis=(1, 2)))
+    if not len(rows):
+        return
+    h = np.asarray(heading, dtype=np.float64)[rows]
+    fwd = np.stack([np.sin(h), np.zeros_like(h), np.cos(h)], axis=-1)
+    drop, K1, A1 = solve_legs(model, H[rows], K[rows], A[rows], d[rows], fwd)
+    shift = A1 - A[rows]                                    # (R, 2, 3)
+    up = np.array([0.0, 1.0, 0.0])
+    for s in range(2):                # placed absolutely; the whole body's drop follows
+        K1[:, s] += drop[:, None] * up
+        shift[:, s] += drop[:, None] * up
+        for c in range(3):
+            P[c, rows, legs.knee[s]] = K1[:, s, c].astype(np.float32)
+        foot = model.foot[s][model.foot[s] >= 0]
+        for c in range(3):
+            P[c, rows[:, None], foot[None, :]] += shift[:, s, c].astype(np.float32)[:, None]
+    P[1, rows] -= drop.astype(np.float32)[:, None]
