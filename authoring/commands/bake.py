@@ -27,7 +27,8 @@ MAX_WORKERS = 64
 
 
 def configure(p):
-    p.add_argument("sample", help="a sample directory (with scenario.toml) or a scenario .toml file")
+    p.add_argument("sample", help="a sample directory (with scenario.toml, or tiling.toml for a tiling sample) or a "
+                                  "scenario .toml file")
     p.add_argument("--out", required=True, help="output stage (.usdc default, .usda for text)")
     p.add_argument("--report", default=None, help="write the checker's full report as JSON")
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=None,
@@ -229,6 +230,10 @@ def run(args) -> int:
             sweep_stale_temps(p)            # left by bakes that were killed
     if args.scheduler and args.clips_per is None:
         raise CLIError("--scheduler writes value-clip layers on a Dask cluster: give --clips-per N too")
+    from authoring.commands.bake_tiling import run_tiling, tiling_config_path
+    tiling = tiling_config_path(args.sample)
+    if tiling is not None:              # a tiling sample (tiling.toml): its characters, like a crowd
+        return run_tiling(args, tiling)
     if args.scheduler:                  # before planning, which can take long
         from authoring.batch.cluster import ClusterError, check_scheduler
         try:
