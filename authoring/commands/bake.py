@@ -14,12 +14,12 @@ workers die with the bake (:mod:`usd_io.clips`).
 """
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
 
 from authoring.commands.args import integer, limits
+from authoring.commands.bake_output import bake_feet, keep_result, print_feet
 from runtime.crowd.goals import LADDER_KINDS, ladder_summary
 from runtime.limits import MAX_CHARACTERS, MAX_SEED
 
@@ -156,28 +156,6 @@ def bake_tilings(sc, graph, env, fps, num_frames):
     return zones, report
 
 
-def bake_feet(stage_path, tracks, zones) -> dict:
-    """Planted-foot slide of the written stage, measured by the crowd checker (crowd characters)
-    and the tiling checker (each zone's characters); empty groups are left out."""
-    from runtime.crowd.checker import check_crowd_feet
-    from runtime.tiling.check import check_tiling_feet
-    from usd_io.crowd import character_path
-    out = {}
-    if tracks:
-        out["crowd"] = check_crowd_feet(stage_path, [character_path(n) for n in tracks])
-    tiled = [character_path(n) for z in zones for n in z.tracks()]
-    if tiled:
-        out["tiled"] = check_tiling_feet(stage_path, tiled)
-    return out
-
-
-def print_feet(feet: dict) -> None:
-    from runtime.footslide import slide_line
-    for group, f in feet.items():
-        verdict = "within limits" if f["within_limits"] else ("OVER LIMITS" if f["enforced"] else "over limits")
-        print(f"feet ({group}, {f['characters']} characters): {slide_line(f)}: {verdict}")
-
-
 def _print_summary(sc, report, tiling_report, flock_report, n, t_plan, t_write, out_note, warnings):
     if tiling_report:
         for zr in tiling_report["zones"]:
@@ -212,11 +190,11 @@ def run(args) -> int:
 
     from authoring.commands import CLIError
     from authoring.commands.args import check_output
-    from runtime.assets import AssetError, atomic_write_bytes, commit_temp, pause_point, sweep_stale_temps, temp_path
+    from runtime.assets import AssetError, pause_point, sweep_stale_temps, temp_path
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scenario import ScenarioError
     from runtime.crowd.scheduler import plan_scenario
-    from usd_io.clips import failed_stage_path, remove_unused_clip_dirs
+    from usd_io.clips import remove_unused_clip_dirs
     from usd_io.crowd import read_tracks
     from usd_io.stage import USD_EXTENSIONS, export_layer
 
@@ -233,7 +211,7 @@ def run(args) -> int:
     from authoring.commands.bake_tiling import run_tiling, tiling_config_path
     tiling = tiling_config_path(args.sample)
     if tiling is not None:              # a tiling sample (tiling.toml): its characters, like a crowd
-        return run_tiling(args, tiling)
+        return run_tiling(args, tiling, out, report_path)
     if args.scheduler:                  # before planning, which can take long
         from authoring.batch.cluster import ClusterError, check_scheduler
         try:
@@ -300,22 +278,7 @@ def run(args) -> int:
         report["ladder"] = {"summary": ladder_summary(result.characters),
                             "characters": {c.name: [st.to_dict() for st in c.ladder]
                                            for c in result.characters if c.ladder}}
-        if passed:
-            pause_point("replacing")
-            commit_temp(tmp, out)
-            note = f"wrote {out}"
-            if report_path is not None:
-                atomic_write_bytes(report_path, json.dumps(report, indent=1, default=float).encode())
-        elif args.keep_failed:
-            failed = failed_stage_path(out)
-            commit_temp(tmp, failed)
-            note = f"{out} not replaced: the failed stage is {failed}"
-            if report_path is not None:
-                rp = report_path.with_name(f"{report_path.stem}.failed{report_path.suffix}")
-                atomic_write_bytes(rp, json.dumps(report, indent=1, default=float).encode())
-                note += f", its report {rp}"
-        else:
-            note = f"{out} not replaced (the checker failed; --keep-failed keeps the new stage beside it)"
+        note = keep_result(tmp, out, report_path, report, passed, args.keep_failed)
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)

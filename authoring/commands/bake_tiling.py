@@ -11,7 +11,6 @@ bake only a stage that passes replaces ``--out``.
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -44,24 +43,17 @@ def load_tiling(toml: Path, quiet: bool = True):
     return cfg, res, lib
 
 
-def run_tiling(args, toml: Path) -> int:
+def run_tiling(args, toml: Path, out: Path, report_path: Path | None) -> int:
+    """The bake of a tiling sample; ``out`` and ``report_path`` already checked by the command."""
     from authoring.commands import CLIError
-    from authoring.commands.args import check_output
-    from authoring.commands.bake import print_feet
-    from runtime.assets import AssetError, atomic_write_bytes, commit_temp, pause_point, sweep_stale_temps, temp_path
+    from authoring.commands.bake_output import keep_result, print_feet
+    from runtime.assets import AssetError, pause_point, temp_path
     from runtime.tiling.check import check_tiling, check_tiling_feet
     from runtime.tiling.scenario import TilingConfigError
-    from usd_io.clips import failed_stage_path, remove_unused_clip_dirs
+    from usd_io.clips import remove_unused_clip_dirs
     from usd_io.crowd import build_crowd_stage, character_path
-    from usd_io.stage import USD_EXTENSIONS, export_layer
+    from usd_io.stage import export_layer
 
-    out = check_output(args.out, USD_EXTENSIONS, "--out")
-    report_path = check_output(args.report, None, "--report") if args.report else None
-    if report_path is not None and report_path.resolve() == out.resolve():
-        raise CLIError(f"--report {report_path}: the same file as --out")
-    for p in (out, report_path):
-        if p is not None:
-            sweep_stale_temps(p)
     if args.seed is not None:
         raise CLIError(f"--seed: {toml} is a tiling; its seed is the config's (change `seed` there)")
     t0 = time.perf_counter()
@@ -88,20 +80,7 @@ def run_tiling(args, toml: Path) -> int:
         passed = rep.passed and (feet is None or not feet["enforced"] or feet["within_limits"])
         report = {"kind": "tiling", "name": name, "summary": {**rep.summary(), "passed": bool(passed)},
                   "feet": {"tiled": feet} if feet else {}, "timing": {"tiling_seconds": t_tile, "write_seconds": t_write}}
-        if passed:
-            commit_temp(tmp, out)
-            note = f"wrote {out}"
-            if report_path is not None:
-                atomic_write_bytes(report_path, json.dumps(report, indent=1, default=float).encode())
-        elif args.keep_failed:
-            failed = failed_stage_path(out)
-            commit_temp(tmp, failed)
-            note = f"{out} not replaced: the failed stage is {failed}"
-            if report_path is not None:
-                rp = report_path.with_name(f"{report_path.stem}.failed{report_path.suffix}")
-                atomic_write_bytes(rp, json.dumps(report, indent=1, default=float).encode())
-        else:
-            note = f"{out} not replaced (the checker failed; --keep-failed keeps the new stage beside it)"
+        note = keep_result(tmp, out, report_path, report, passed, args.keep_failed)
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
