@@ -421,9 +421,11 @@ class PoseBatch:
             lock = LockState.empty(n)
         elif keep is not None:
             idx = np.asarray(keep, dtype=np.int64).reshape(-1)
-            if len(idx) == n and (not len(idx) or idx.max() < len(lock.locked)):   # else push raises below
+            if len(idx) == n and (not len(idx) or idx.max() < len(lock.locked)):
                 lock = lock.take(np.where(idx >= 0, idx, 0))
                 lock.reset(idx < 0)
+            else:                       # push raises below; the kernel must not read past the state
+                lock = LockState.empty(n)
         if self.fused:
             _kernels.foot_lock(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock,
                                BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP)

@@ -276,9 +276,10 @@ if AVAILABLE:
                     P[0, i, j] += shx
                     P[1, i, j] += shy
                     P[2, i, j] += shz
-            fd = np.float32(drop)
-            for j in range(J):
-                P[1, i, j] -= fd
+            if drop > 0.0:
+                fd = np.float32(drop)
+                for j in range(J):
+                    P[1, i, j] -= fd
 
 def blend_place(local, fa, fb, t, root, out):
     """World positions (3, n, J) into ``out``: ``R_y(heading) lerp(L[a], L[b], t) + (x, 0, z)``.
