@@ -334,9 +334,10 @@ class PoseBatch:
     numpy passes described in the module docstring. Both compute the same float32 formula.
 
     ``foot_lock`` (default on) pins planted feet where they landed, tick by tick, with a state
-    per character (:func:`runtime.motion.footlock.lock_positions`; in the fused path one more
-    parallel kernel): knees and feet move, the body comes down when a foot is out of reach, the
-    root path does not change. :meth:`transforms` stays the unlocked exact evaluation.
+    per character (:func:`runtime.motion.footlock.lock_positions`; on the fused path in the
+    same pass as the placement, :func:`runtime.pose_kernels.blend_place_lock`): knees and feet
+    move, the body comes down when a foot is out of reach, the root path does not change.
+    :meth:`transforms` stays the unlocked exact evaluation.
     """
 
     def __init__(self, graph, fused: bool | None = None, foot_lock: bool = True):
@@ -372,14 +373,20 @@ class PoseBatch:
         n = len(st)
         J = self.num_joints
         spare = self._spare if self._spare is not None and self._spare.shape == (3, n, J) else None
+        lock = self._lock_state(n, keep) if self.foot_lock else None
         if self.fused:
             wc = spare if spare is not None else np.empty((3, n, J), dtype=np.float32)
-            _kernels.blend_place(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc)
+            if lock is None:
+                _kernels.blend_place(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc)
+            else:       # placed and locked in one pass per character
+                _kernels.blend_place_lock(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc,
+                                          self.lock_model, lock, BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP)
         else:
             wc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
             _place(wc, st.root, wc, self._ws)
-        if self.foot_lock:
-            self._lock_feet(st, wc, keep)
+            if lock is not None:
+                lock_positions(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock)
+        self._lock = lock
         if self.cur is None or (keep is None and len(self.cur) != n):
             prev, wp = st.copy(), wc.copy()
         elif keep is None:
@@ -412,26 +419,20 @@ class PoseBatch:
         if not self.fused:
             np.subtract(wc, wp, out=self._d)
 
-    def _lock_feet(self, st: PoseState, wc, keep) -> None:
-        """Carry each character's lock state over (``keep`` as in :meth:`push`; new characters
-        start unlocked) and lock this tick's feet in ``wc``."""
-        n = len(st)
+    def _lock_state(self, n: int, keep) -> LockState:
+        """Each character's lock state carried over (``keep`` as in :meth:`push`; new characters
+        start unlocked)."""
         lock = self._lock
         if lock is None or self.cur is None or (keep is None and len(lock.locked) != n):
-            lock = LockState.empty(n)
-        elif keep is not None:
-            idx = np.asarray(keep, dtype=np.int64).reshape(-1)
-            if len(idx) == n and (not len(idx) or idx.max() < len(lock.locked)):
-                lock = lock.take(np.where(idx >= 0, idx, 0))
-                lock.reset(idx < 0)
-            else:                       # push raises below; the kernel must not read past the state
-                lock = LockState.empty(n)
-        if self.fused:
-            _kernels.foot_lock(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock,
-                               BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP)
-        else:
-            lock_positions(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock)
-        self._lock = lock
+            return LockState.empty(n)
+        if keep is None:
+            return lock
+        idx = np.asarray(keep, dtype=np.int64).reshape(-1)
+        if len(idx) != n or (len(idx) and idx.max() >= len(lock.locked)):
+            return LockState.empty(n)       # push raises below; the kernel must not read past the state
+        lock = lock.take(np.where(idx >= 0, idx, 0))
+        lock.reset(idx < 0)
+        return lock
 
     def roots(self, alpha: float = 1.0) -> np.ndarray:
         """Interpolated planar roots (N, 3): x, z, heading."""

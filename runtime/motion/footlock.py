@@ -452,11 +452,13 @@ def lock_positions(model: FootLockModel, planes: np.ndarray, frames_a, frames_b,
     shift = A1 - A[rows]                                    # (R, 2, 3)
     up = np.array([0.0, 1.0, 0.0])
     for s in range(2):                # placed absolutely; the whole body's drop follows
+        leg = np.flatnonzero(np.any(d[rows, s] != 0, axis=-1) | (drop > 0))   # a leg that stays is not solved
+        r = rows[leg]
         K1[:, s] += drop[:, None] * up
         shift[:, s] += drop[:, None] * up
         for c in range(3):
-            P[c, rows, legs.knee[s]] = K1[:, s, c].astype(np.float32)
+            P[c, r, legs.knee[s]] = K1[leg, s, c].astype(np.float32)
         foot = model.foot[s][model.foot[s] >= 0]
         for c in range(3):
-            P[c, rows[:, None], foot[None, :]] += shift[:, s, c].astype(np.float32)[:, None]
+            P[c, r[:, None], foot[None, :]] += shift[leg, s, c].astype(np.float32)[:, None]
     P[1, rows] -= drop.astype(np.float32)[:, None]
