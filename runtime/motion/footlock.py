@@ -21,8 +21,9 @@ world orientation and moves rigidly with the ankle), vectorized over characters 
   The hip-ankle distance is kept within what the capture's knee flexion range allows
   (:attr:`FootLockModel.flex_min` .. :attr:`flex_max`, measured over the library's frames):
   no hyperextension, no flexion the capture never shows. When a pinned foot is out of reach
-  the whole body is lowered (the hips, up to :data:`MAX_HIP_DROP`), then the ankle is
-  clamped to the reach.
+  the whole body is lowered (the hips, up to :data:`MAX_HIP_DROP`, never so far that the
+  other knee would bend more than the capture's), then the pin is followed only as far as the
+  leg reaches (the foot slides rather than being pushed into the ground).
 
 :func:`lock_step` advances the lock state of many characters by one frame (the runtime's
 :class:`runtime.pose.PoseBatch` and the bake both step through it, the batch in a numba kernel
