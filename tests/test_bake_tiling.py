@@ -33,3 +33,13 @@ def test_a_static_tiling_bakes_to_skelroots_and_is_checked(tmp_path, capsys):
 def test_a_tiling_bake_takes_no_seed(tmp_path):
     with pytest.raises(CLIError, match="seed"):
         bake_sample(SAMPLES / "tiling_static_15", tmp_path / "t.usdc", seed=3)
+
+
+def test_slide_limits_fail_a_bake_once_enforced(tmp_path, capsys, monkeypatch):
+    import runtime.footslide as fs
+    monkeypatch.setattr(fs, "ENFORCED", True)
+    monkeypatch.setitem(fs.LIMITS, "sliding_share", 0.0)      # no planted frame may slide at all
+    out = tmp_path / "t.usdc"
+    assert bake_sample(SAMPLES / "tiling_static_15", out) == 1
+    text = capsys.readouterr().out
+    assert "OVER LIMITS" in text and "checker: FAILED" in text and not out.exists()
