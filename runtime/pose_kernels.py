@@ -256,10 +256,10 @@ if AVAILABLE:
             vz = wz + fr * dz
             D = np.sqrt(vx * vx + vy * vy + vz * vz)
             Dc = min(max(D, rmin[s]), rmax[s])
-            Dn = max(D, 1e-12)
-            ux = vx / Dn
-            uy = vy / Dn
-            uz = vz / Dn
+            rD = 1.0 / max(D, 1e-12)
+            ux = vx * rD
+            uy = vy * rD
+            uz = vz * rD
             qx = np.float64(P[0, i, knee[s]]) - P[0, i, hip[s]]
             qy = np.float64(P[1, i, knee[s]]) - P[1, i, hip[s]]
             qz = np.float64(P[2, i, knee[s]]) - P[2, i, hip[s]]
@@ -274,13 +274,13 @@ if AVAILABLE:
                 qx = fwx - pr * ux
                 qy = -pr * uy
                 qz = fwz - pr * uz
-            qn = max(np.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
+            rq = 1.0 / max(np.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
             a = (thigh[s] * thigh[s] - shin[s] * shin[s] + Dc * Dc) / (2.0 * Dc)
             b = np.sqrt(max(thigh[s] * thigh[s] - a * a, 0.0))
             # knee and feet are placed absolutely; the drop of the whole body follows below
-            P[0, i, knee[s]] = np.float32(hx + ux * a + qx / qn * b)
-            P[1, i, knee[s]] = np.float32(hy + uy * a + qy / qn * b + drop)
-            P[2, i, knee[s]] = np.float32(hz + uz * a + qz / qn * b)
+            P[0, i, knee[s]] = np.float32(hx + ux * a + qx * rq * b)
+            P[1, i, knee[s]] = np.float32(hy + uy * a + qy * rq * b + drop)
+            P[2, i, knee[s]] = np.float32(hz + uz * a + qz * rq * b)
             shx = np.float32(hx + ux * Dc - ax)
             shy = np.float32(hy + uy * Dc - ay + drop)
             shz = np.float32(hz + uz * Dc - az)
