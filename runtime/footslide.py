@@ -112,11 +112,11 @@ def stage_feet(path, roots=None) -> dict:
         if not times:
             continue
         world = np.array(xf.GetLocalToWorldTransform(prim), dtype=np.float64)
-        pos = np.empty((len(times), 2, 4, 3))
+        rows = np.empty((len(times), 2, 4, 4))          # the joints' translation rows (row vectors)
         for k, t in enumerate(times):
-            m = np.array(q.ComputeJointSkelTransforms(Usd.TimeCode(t)), dtype=np.float64)[chains]   # (2, 4, 4, 4)
-            p = np.concatenate([m[..., 3, :3], np.ones(m.shape[:-2] + (1,))], axis=-1) @ world
-            pos[k] = p[..., :3]
+            rows[k] = np.asarray(q.ComputeJointSkelTransforms(Usd.TimeCode(t)))[chains, 3]
+        rows[..., 3] = 1.0
+        pos = (rows @ world)[..., :3]
         thigh = pos[:, :, 2] - pos[:, :, 3]
         shin = pos[:, :, 1] - pos[:, :, 2]
         c = np.sum(thigh * shin, -1) / np.maximum(np.linalg.norm(thigh, axis=-1) * np.linalg.norm(shin, axis=-1), 1e-12)
