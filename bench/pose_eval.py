@@ -6,6 +6,9 @@ ticks. Every method produces the joint world positions (N, J, 3) of all characte
 
 * ``PoseBatch fused tick``: what a world does once per tick when numba is importable -- ``push``
   and one ``positions(alpha)`` in the fused parallel kernels (runtime/pose_kernels.py);
+* ``... walking, foot lock`` / ``no lock``: the same over a sequence of ticks in which every
+  character walks on through its clip (so planted feet are pinned, released and pinned again
+  as in a world), with the foot lock (runtime/motion/footlock.py, the default) and without;
 * ``PoseBatch tick``: the numpy path -- ``push`` (one gather of the precomputed
   per-frame root-local positions and a blend) plus one ``positions(alpha)``;
 * ``PoseBatch push only``: the per-tick half alone;
@@ -52,6 +55,29 @@ def make_states(graph, n, seed=0):
     prev = PoseState(fa - 1, fa, t, root - step)
     cur = PoseState(fa, fa + 1, t, root)
     return prev, cur
+
+
+def walking_ticks(graph, cur, ticks):
+    """``ticks`` consecutive states of every character walking on through the library from ``cur``."""
+    T = len(graph.frame_height)
+    out = []
+    for k in range(ticks):
+        fa = np.minimum(cur.frames_a + k, T - 2)
+        step = np.column_stack([np.sin(cur.root[:, 2]), np.cos(cur.root[:, 2])]) * 0.045 * k
+        out.append(PoseState(fa, fa + 1, cur.frames_t, cur.root + np.column_stack([step, np.zeros(len(fa))])))
+    return out
+
+
+def timed_sequence(batch, states, alpha):
+    """Per-tick milliseconds of push + positions over ``states`` (the first two only warm up)."""
+    ts = []
+    for k, st in enumerate(states):
+        t0 = time.perf_counter()
+        batch.push(st)
+        batch.positions(alpha)
+        if k >= 2:
+            ts.append(time.perf_counter() - t0)
+    return np.array(ts) * 1e3
 
 
 def loop_exact(graph, prev, cur, alpha, count):
@@ -103,12 +129,12 @@ def main(argv=None):
     PoseTable.for_graph(g)
     build_ms = (time.perf_counter() - t0) * 1e3
     rows = []
-    batches = [("", PoseBatch(g, fused=False))]
+    batches = [("", PoseBatch(g, fused=False, foot_lock=False))]
     if pose_kernels.AVAILABLE:
         t0 = time.perf_counter()
         PoseBatch(g, fused=True).push(cur)       # compile (or load the cached kernels)
         compile_ms = (time.perf_counter() - t0) * 1e3
-        batches.insert(0, (" fused", PoseBatch(g, fused=True)))
+        batches.insert(0, (" fused", PoseBatch(g, fused=True, foot_lock=False)))
     for tag, batch in batches:
         batch.push(prev)
 
@@ -126,6 +152,14 @@ def main(argv=None):
         rows.append((f"PoseBatch{tag} push only (per tick)", ms, batch.positions(a).copy()))
         ms, _ = timed(lambda: batch.positions(a), args.repeat)
         rows.append((f"PoseBatch{tag} frame (positions)", ms, batch.positions(a).copy()))
+    walk = walking_ticks(g, cur, args.repeat + 2)
+    lock_rows = []
+    for tag, fused in ([(" fused", True)] if pose_kernels.AVAILABLE else []) + [("", False)]:
+        for lock in (False, True):
+            b = PoseBatch(g, fused=fused, foot_lock=lock)
+            ms = timed_sequence(b, walk, a)
+            lock_rows.append((f"PoseBatch{tag} walking, {'foot lock' if lock else 'no lock'}", ms,
+                              None if not lock else int(b._lock.locked.sum())))
     ms, out_ew = timed(lambda: evaluate_world(g, cur.frames_a, cur.frames_b, cur.frames_t, cur.root, prev=prev,
                                               alpha=a), max(5, args.repeat // 3))
     rows.append(("evaluate_world (stateless)", ms, out_ew))
@@ -166,10 +200,19 @@ def main(argv=None):
         best, med = ms.min(), float(np.median(ms))
         print(f"{name:<40} {best:>11.2f} {med:>8.2f} {1e3 / med:>9.1f} {loop_ms / med:>8.0f}x {d:>15.4f} m")
     print()
+    print(f"{'walking ticks (push + positions)':<40} {'ms/tick min':>11} {'median':>8} {'feet pinned':>12}")
+    for name, ms, pinned in lock_rows:
+        print(f"{name:<40} {ms.min():>11.2f} {float(np.median(ms)):>8.2f} "
+              f"{'' if pinned is None else f'{pinned}/{2 * n}':>12}")
+    print()
     tick_med = float(np.median(rows[0][1]))
     print(f"{rows[0][0]}:")
     print(f"per tick (push + one frame): median {tick_med:.2f} ms = {1e3 / tick_med:.0f} ticks/s "
           f"(target <= 3 ms); {loop_ms / tick_med:.0f}x the per-character loop (target >= 30x)")
+    if lock_rows:
+        off, on = float(np.median(lock_rows[0][1])), float(np.median(lock_rows[1][1]))
+        print(f"{lock_rows[1][0]}: median {on:.2f} ms per tick against {off:.2f} ms without the lock "
+              f"(+{on - off:.2f} ms; target <= 3 ms)")
 
 
 if __name__ == "__main__":

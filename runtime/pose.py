@@ -48,8 +48,11 @@ from .crowd.tracks import evaluate_poses
 from . import pose_kernels as _kernels
 from .motion import quat
 from .motion.fk import forward_kinematics
+from .motion.footlock import (BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP, FootLockModel, LockState, lock_positions,
+                              lock_skel_arrays)
 
-__all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root", "skel_arrays"]
+__all__ = ["PoseState", "PoseTable", "PoseBatch", "Scratch", "evaluate_world", "interpolate_root", "skel_arrays",
+           "locked_joint_positions"]
 
 
 @dataclass
@@ -267,7 +270,7 @@ def _exact(graph, cur: PoseState, prev: PoseState | None, alpha):
 
 # -- baked animation arrays ----------------------------------------------------------------------
 
-def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = None):
+def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = None, lock_segments=None):
     """UsdSkel animation arrays of M frames (any mix of characters): joint translations (M, J, 3)
     float32 (the root joint's is its world position and height, the others' the rest offsets),
     local joint rotations (M, J, 4) float32 in the x-y-z-w memory order of ``GfQuatf`` (the
@@ -275,7 +278,11 @@ def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = 
 
     The arithmetic of :func:`runtime.crowd.tracks.evaluate_poses` (float32 slerp of library
     frames); ``fused`` (default: numba available) runs it as one parallel kernel
-    (:func:`runtime.pose_kernels.skel_arrays`), else as numpy passes."""
+    (:func:`runtime.pose_kernels.skel_arrays`), else as numpy passes.
+
+    ``lock_segments`` (M,) bool, True on the first frame of each character's frames, applies
+    the foot lock (:func:`runtime.motion.footlock.lock_skel_arrays`: planted feet pinned where
+    they landed; the legs' rotations and the root height change, the root path does not)."""
     fa = np.asarray(frames_a, dtype=np.int64).reshape(-1)
     fb = np.asarray(frames_b, dtype=np.int64).reshape(-1)
     ft = np.asarray(frames_t, dtype=np.float32).reshape(-1)
@@ -283,14 +290,29 @@ def skel_arrays(graph, frames_a, frames_b, frames_t, root, fused: bool | None = 
     PoseState(fa, fb, ft, root).check(len(graph.frame_height))
     offsets = np.asarray(graph.skeleton.offsets, dtype=np.float64)
     if _kernels.AVAILABLE if fused is None else fused:
-        return _kernels.skel_arrays(graph.frame_rotations, graph.frame_height, offsets, fa, fb, ft, root)
-    pos, rot = evaluate_poses(graph, fa, fb, ft, root)
-    trans = np.empty(pos.shape[:1] + offsets.shape, np.float32)
-    trans[:] = offsets
-    trans[:, 0] = pos
-    q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
-    rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
+        trans, q, rootv = _kernels.skel_arrays(graph.frame_rotations, graph.frame_height, offsets, fa, fb, ft, root)
+    else:
+        pos, rot = evaluate_poses(graph, fa, fb, ft, root)
+        trans = np.empty(pos.shape[:1] + offsets.shape, np.float32)
+        trans[:] = offsets
+        trans[:, 0] = pos
+        q = np.ascontiguousarray(rot[..., [1, 2, 3, 0]], dtype=np.float32)
+        rootv = np.column_stack([root[:, 0], root[:, 1], np.degrees(root[:, 2])])
+    if lock_segments is not None:
+        seg = np.asarray(lock_segments, dtype=bool).reshape(-1)
+        if len(seg) != len(fa):
+            raise ValueError(f"lock_segments has {len(seg)} entries for {len(fa)} frames")
+        lock_skel_arrays(FootLockModel.for_library(graph), graph.skeleton, fa, fb, ft, seg, trans, q)
     return trans, q, rootv
+
+
+def locked_joint_positions(graph, track) -> np.ndarray:
+    """Joint world positions (F, J, 3) float64 of one track as a bake writes it (foot lock
+    applied: :func:`skel_arrays` with ``lock_segments``, then forward kinematics)."""
+    seg = np.zeros(len(track), dtype=bool)
+    seg[:1] = True
+    trans, q, _ = skel_arrays(graph, track.frames_a, track.frames_b, track.frames_t, track.root, lock_segments=seg)
+    return forward_kinematics(graph.skeleton, trans[:, 0].astype(np.float64), q[..., [3, 0, 1, 2]])[1]
 
 
 # -- render-side state ---------------------------------------------------------------------------
@@ -310,14 +332,23 @@ class PoseBatch:
     ``fused`` (default: when numba is available) evaluates a push and an interpolation each in
     one parallel pass per character (:mod:`runtime.pose_kernels`); ``fused=False`` runs the
     numpy passes described in the module docstring. Both compute the same float32 formula.
+
+    ``foot_lock`` (default on) pins planted feet where they landed, tick by tick, with a state
+    per character (:func:`runtime.motion.footlock.lock_positions`; on the fused path in the
+    same pass as the placement, :func:`runtime.pose_kernels.blend_place_lock`): knees and feet
+    move, the body comes down when a foot is out of reach, the root path does not change.
+    :meth:`transforms` stays the unlocked exact evaluation.
     """
 
-    def __init__(self, graph, fused: bool | None = None):
+    def __init__(self, graph, fused: bool | None = None, foot_lock: bool = True):
         self.graph = graph
         self.fused = _kernels.AVAILABLE if fused is None else bool(fused)
         if self.fused and not _kernels.AVAILABLE:
             raise RuntimeError("fused pose kernels need numba, which could not be imported")
         self.table = PoseTable.for_graph(graph)
+        self.foot_lock = bool(foot_lock)
+        self.lock_model = FootLockModel.for_library(graph) if self.foot_lock else None
+        self._lock: LockState | None = None    # per character: which feet are pinned, and where
         self.num_joints = self.table.num_joints
         self.prev: PoseState | None = None
         self.cur: PoseState | None = None
@@ -334,6 +365,7 @@ class PoseBatch:
     def reset(self) -> None:
         self.prev = self.cur = None
         self._wc = self._wp = self._d = None
+        self._lock = None
 
     def push(self, state, keep=None) -> None:
         st = _as_state(state).copy()
@@ -341,12 +373,20 @@ class PoseBatch:
         n = len(st)
         J = self.num_joints
         spare = self._spare if self._spare is not None and self._spare.shape == (3, n, J) else None
+        lock = self._lock_state(n, keep) if self.foot_lock else None
         if self.fused:
             wc = spare if spare is not None else np.empty((3, n, J), dtype=np.float32)
-            _kernels.blend_place(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc)
+            if lock is None:
+                _kernels.blend_place(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc)
+            else:       # placed and locked in one pass per character
+                _kernels.blend_place_lock(self.table.local, st.frames_a, st.frames_b, st.frames_t, st.root, wc,
+                                          self.lock_model, lock, BLEND_FRAMES, MAX_CORRECTION, MAX_HIP_DROP)
         else:
             wc = self.table.blend(st.frames_a, st.frames_b, st.frames_t, out=spare, scratch=self._ws)
             _place(wc, st.root, wc, self._ws)
+            if lock is not None:
+                lock_positions(self.lock_model, wc, st.frames_a, st.frames_b, st.frames_t, st.root[:, 2], lock)
+        self._lock = lock
         if self.cur is None or (keep is None and len(self.cur) != n):
             prev, wp = st.copy(), wc.copy()
         elif keep is None:
@@ -360,7 +400,8 @@ class PoseBatch:
             old = keep >= 0
             src = np.where(old, keep, 0)
             prev = self.cur.take(src) if len(self.cur) else st.copy()
-            wp = self._wc[:, src] if len(self.cur) else wc.copy()
+            # C order: this buffer is reused by a later push, whose numpy path writes through reshapes
+            wp = np.ascontiguousarray(self._wc[:, src]) if len(self.cur) else wc.copy()
             new = np.flatnonzero(~old)
             prev.frames_a[new] = st.frames_a[new]
             prev.frames_b[new] = st.frames_b[new]
@@ -377,6 +418,21 @@ class PoseBatch:
             self._d = None if self.fused else np.empty_like(wc)
         if not self.fused:
             np.subtract(wc, wp, out=self._d)
+
+    def _lock_state(self, n: int, keep) -> LockState:
+        """Each character's lock state carried over (``keep`` as in :meth:`push`; new characters
+        start unlocked)."""
+        lock = self._lock
+        if lock is None or self.cur is None or (keep is None and len(lock.locked) != n):
+            return LockState.empty(n)
+        if keep is None:
+            return lock
+        idx = np.asarray(keep, dtype=np.int64).reshape(-1)
+        if len(idx) != n or (len(idx) and idx.max() >= len(lock.locked)):
+            return LockState.empty(n)       # push raises below; the kernel must not read past the state
+        lock = lock.take(np.where(idx >= 0, idx, 0))
+        lock.reset(idx < 0)
+        return lock
 
     def roots(self, alpha: float = 1.0) -> np.ndarray:
         """Interpolated planar roots (N, 3): x, z, heading."""

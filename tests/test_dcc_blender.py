@@ -22,7 +22,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from runtime.crowd.tracks import Track, joint_positions
+from runtime.crowd.tracks import Track
+from runtime.pose import locked_joint_positions
 from usd_io.crowd import build_crowd_stage, save_crowd_stage
 
 pytestmark = pytest.mark.dcc
@@ -109,7 +110,7 @@ def test_blender_imports_the_baked_crowd(bpy_available, default_graph, tmp_path)
         print(f"{where}: Blender scene rate on import {stage['fps_found']:g} fps (stage: 30 time codes/s)")
         worst = 0.0
         for name, tr in tracks.items():
-            ours = joint_positions(default_graph, tr)               # runtime FK, Y-up metres
+            ours = locked_joint_positions(default_graph, tr)        # runtime FK as baked (feet locked), Y-up m
             heads = stage["armatures"][name.replace(" ", "_")]["heads"]
             for f in frames:
                 i = min(max(f - tr.start_frame, 0), len(tr) - 1)    # before/after its samples USD holds the ends

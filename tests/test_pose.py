@@ -110,7 +110,7 @@ def test_pose_batch_interpolates_and_keeps_characters_across_spawns(default_grap
     g = default_graph
     rng = np.random.default_rng(4)
     prev, cur = _states(g, 6, rng)
-    batch = PoseBatch(g)
+    batch = PoseBatch(g, foot_lock=False)        # the evaluator itself (the lock: tests/test_footlock.py)
     batch.push(prev)
     assert np.allclose(batch.positions(0.3), evaluate_world(g, prev.frames_a, prev.frames_b, prev.frames_t, prev.root))
     batch.push(cur)
@@ -158,7 +158,7 @@ def test_bad_input_is_reported(default_graph):
 def test_pose_batch_restarts_after_reset(default_graph):
     g = default_graph
     prev, cur = _states(g, 7, np.random.default_rng(6))
-    batch = PoseBatch(g)
+    batch = PoseBatch(g, foot_lock=False)
     batch.push(prev)
     batch.push(cur)
     batch.reset()
@@ -178,7 +178,7 @@ def test_pose_batch_over_ticks_equals_the_stateless_evaluator(default_graph, fus
     rng = np.random.default_rng(11)
     n, T = 300, len(g.frame_height)
     _, st = _states(g, n, rng)
-    batch = PoseBatch(g, fused=fused)
+    batch = PoseBatch(g, fused=fused, foot_lock=False)
     assert batch.fused == fused
     batch.push(st)
     for tick in range(8):

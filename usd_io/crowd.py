@@ -147,7 +147,8 @@ def reference_world(stage, world_path, out_path=None):
 
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
                       num_frames: int | None = None, world_path=None, out_path=None, body: bool = True,
-                      clips_per: int | None = None, workers: int | None = None, scheduler: str | None = None):
+                      clips_per: int | None = None, workers: int | None = None, scheduler: str | None = None,
+                      foot_lock: bool = True):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
     SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
     one prototype mesh). ``world_path`` (a world stage) is referenced as
@@ -159,13 +160,18 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     parallel processes (default 2) or on the Dask cluster at ``scheduler``, into a directory beside ``out_path`` that is assembled under a
     temporary name and renamed into place (:func:`usd_io.clips.write_clip_layers`); the returned
     stage refers to it by a relative path. Save the stage to ``out_path`` (:func:`save_crowd_stage`
-    also removes clip directories of earlier bakes to the same path)."""
+    also removes clip directories of earlier bakes to the same path).
+
+    Planted feet are locked (:mod:`runtime.motion.footlock`); ``foot_lock=False`` writes the
+    library's poses as they are (single-layer stages only)."""
     n = max([len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
     if clips_per is not None:
         if out_path is None:
             raise ValueError("clips_per needs out_path: the clip layers are written beside the stage")
         if int(clips_per) < 1:
             raise ValueError(f"clips_per must be at least 1, got {clips_per}")
+        if not foot_lock:
+            raise ValueError("foot_lock=False is for single-layer stages: value-clip layers always lock feet")
     if stage is None:
         stage = new_stage(fps, 0, n - 1)
     world = UsdGeom.Xform.Define(stage, "/World")
@@ -197,7 +203,8 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     if clips_per is None:
         with Sdf.ChangeBlock():
             author_tracks(layer, items, graph, sv,
-                          lambda path, tr: define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body))
+                          lambda path, tr: define_character_specs(layer, target.MapToSpecPath(path), sv, tr, body),
+                          foot_lock)
     else:
         with write_clip_layers(out_path, items, graph, fps, int(clips_per), workers, scheduler) as clips:
             # the workers write the clip layers while this process authors the prims

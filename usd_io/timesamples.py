@@ -107,13 +107,19 @@ def define_animated_specs(layer: Sdf.Layer, root_path: Sdf.Path, specifier=Sdf.S
 
 
 # -- values -------------------------------------------------------------------------------------
-def pose_arrays(graph, tracks: list[Track], sv: SkelValues):
+def pose_arrays(graph, tracks: list[Track], sv: SkelValues, foot_lock: bool = True):
     """SkelAnimation arrays of several tracks at once, concatenated over their frames:
     translations (M, J, 3) float32 (root: world position), rotations (M, J, 4) float32 in the
-    x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg)."""
+    x, y, z, w memory order of GfQuatf, and crowdweave:root (M, 3) float64 (x, z, heading deg).
+    Planted feet are locked per track (the runtime's foot lock) unless ``foot_lock`` is False."""
     from runtime.pose import skel_arrays
+    lens = [len(t) for t in tracks]
+    starts = np.zeros(sum(lens), dtype=bool)
+    first = np.cumsum([0] + lens[:-1])
+    starts[first[first < len(starts)]] = True
     return skel_arrays(graph, np.concatenate([t.frames_a for t in tracks]), np.concatenate([t.frames_b for t in tracks]),
-                       np.concatenate([t.frames_t for t in tracks]), np.concatenate([t.root for t in tracks]))
+                       np.concatenate([t.frames_t for t in tracks]), np.concatenate([t.root for t in tracks]),
+                       lock_segments=starts if foot_lock else None)
 
 
 def author_samples(specs: list, times: list[float], trans, quats, rootv) -> None:
@@ -144,16 +150,17 @@ def batches(items, frames: int):
         yield batch
 
 
-def author_tracks(layer: Sdf.Layer, items, graph, sv: SkelValues, define_specs) -> None:
+def author_tracks(layer: Sdf.Layer, items, graph, sv: SkelValues, define_specs, foot_lock: bool = True) -> None:
     """Author the time samples of ``items`` ((spec path, Track), ...) into ``layer``, poses
     evaluated in batches of :data:`POSE_BATCH_FRAMES` frames; call inside an ``Sdf.ChangeBlock``.
 
     Args:
         define_specs: ``f(path, track)`` -> the animated attribute specs of that character
             (translations, rotations, crowdweave:root), e.g. :func:`define_animated_specs`.
+        foot_lock: lock planted feet (:func:`pose_arrays`).
     """
     for batch in batches(items, POSE_BATCH_FRAMES):
-        trans, quats, rootv = pose_arrays(graph, [tr for _, tr in batch], sv)
+        trans, quats, rootv = pose_arrays(graph, [tr for _, tr in batch], sv, foot_lock)
         k = 0
         for path, tr in batch:
             specs = define_specs(path, tr)

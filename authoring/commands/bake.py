@@ -14,12 +14,12 @@ workers die with the bake (:mod:`usd_io.clips`).
 """
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
 
 from authoring.commands.args import integer, limits
+from authoring.commands.bake_output import bake_feet, keep_result, print_feet
 from runtime.crowd.goals import LADDER_KINDS, ladder_summary
 from runtime.limits import MAX_CHARACTERS, MAX_SEED
 
@@ -27,7 +27,8 @@ MAX_WORKERS = 64
 
 
 def configure(p):
-    p.add_argument("sample", help="a sample directory (with scenario.toml) or a scenario .toml file")
+    p.add_argument("sample", help="a sample directory (with scenario.toml, or tiling.toml for a tiling sample) or a "
+                                  "scenario .toml file")
     p.add_argument("--out", required=True, help="output stage (.usdc default, .usda for text)")
     p.add_argument("--report", default=None, help="write the checker's full report as JSON")
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=None,
@@ -173,6 +174,7 @@ def _print_summary(sc, report, tiling_report, flock_report, n, t_plan, t_write, 
     print(f"checker: adjustment within eps for {s['characters_within_eps']}/{n} characters "
           f"(max {s['max_adjust_m_s'] * 100:.2f} cm/s, {s['max_adjust_deg_s']:.2f} deg/s, {s['max_adjust_s_s']:.4f} s/s); "
           f"{s['character_overlap_pairs']} overlapping pairs, {s['obstacle_overlap_characters']} characters in obstacles")
+    print_feet(report.get("feet", {}))
     lad = report.get("ladder", {}).get("summary")
     if lad and n:
         parts = [f"{lad[k]} {k}" for k in LADDER_KINDS if lad[k]]
@@ -188,11 +190,11 @@ def run(args) -> int:
 
     from authoring.commands import CLIError
     from authoring.commands.args import check_output
-    from runtime.assets import AssetError, atomic_write_bytes, commit_temp, pause_point, sweep_stale_temps, temp_path
+    from runtime.assets import AssetError, pause_point, sweep_stale_temps, temp_path
     from runtime.crowd.checker import check_crowd
     from runtime.crowd.scenario import ScenarioError
     from runtime.crowd.scheduler import plan_scenario
-    from usd_io.clips import failed_stage_path, remove_unused_clip_dirs
+    from usd_io.clips import remove_unused_clip_dirs
     from usd_io.crowd import read_tracks
     from usd_io.stage import USD_EXTENSIONS, export_layer
 
@@ -206,6 +208,10 @@ def run(args) -> int:
             sweep_stale_temps(p)            # left by bakes that were killed
     if args.scheduler and args.clips_per is None:
         raise CLIError("--scheduler writes value-clip layers on a Dask cluster: give --clips-per N too")
+    from authoring.commands.bake_tiling import run_tiling, tiling_config_path
+    tiling = tiling_config_path(args.sample)
+    if tiling is not None:              # a tiling sample (tiling.toml): its characters, like a crowd
+        return run_tiling(args, tiling, out, report_path)
     if args.scheduler:                  # before planning, which can take long
         from authoring.batch.cluster import ClusterError, check_scheduler
         try:
@@ -253,9 +259,14 @@ def run(args) -> int:
         pause_point("checking")
         # the checker reads the baked stage back (the temporary file), not the planner's objects
         report = check_crowd(sc, read_tracks(tmp) if sc.characters else {}, graph, env, result.fps).to_dict()
+        feet = bake_feet(tmp, tracks, zones)
+        report["feet"] = feet
         if tiling_report:
             report["tiling"] = tiling_report
             report["summary"]["passed"] = report["summary"]["passed"] and tiling_report["passed"]
+        for f in feet.values():
+            if f["enforced"]:
+                report["summary"]["passed"] = report["summary"]["passed"] and f["within_limits"]
         if flock_report:
             report["flocks"] = flock_report
             report["summary"]["passed"] = report["summary"]["passed"] and flock_report["passed"]
@@ -267,22 +278,7 @@ def run(args) -> int:
         report["ladder"] = {"summary": ladder_summary(result.characters),
                             "characters": {c.name: [st.to_dict() for st in c.ladder]
                                            for c in result.characters if c.ladder}}
-        if passed:
-            pause_point("replacing")
-            commit_temp(tmp, out)
-            note = f"wrote {out}"
-            if report_path is not None:
-                atomic_write_bytes(report_path, json.dumps(report, indent=1, default=float).encode())
-        elif args.keep_failed:
-            failed = failed_stage_path(out)
-            commit_temp(tmp, failed)
-            note = f"{out} not replaced: the failed stage is {failed}"
-            if report_path is not None:
-                rp = report_path.with_name(f"{report_path.stem}.failed{report_path.suffix}")
-                atomic_write_bytes(rp, json.dumps(report, indent=1, default=float).encode())
-                note += f", its report {rp}"
-        else:
-            note = f"{out} not replaced (the checker failed; --keep-failed keeps the new stage beside it)"
+        note = keep_result(tmp, out, report_path, report, passed, args.keep_failed)
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)

@@ -29,7 +29,7 @@ from ..check import CheckReport
 from ..motion import quat
 from ..motion.planar import compose, relative, wrap_angle
 
-__all__ = ["CrowdReport", "check_crowd", "adjustment_rates", "summarize", "overlapping_pairs", "obstacle_overlaps"]
+__all__ = ["CrowdReport", "check_crowd", "check_crowd_feet", "adjustment_rates", "summarize", "overlapping_pairs", "obstacle_overlaps"]
 
 
 def _edge_of(graph, frames):
@@ -287,3 +287,12 @@ def summarize(goal_rows, per_char, pair_hits, obstacle_hits) -> dict:
                        and all(g["in_window"] and g["pose_ok"] for g in goal_rows)
                        and (within >= 0.99 * n) and not pair_hits and not obstacle_hits),
     }
+
+
+def check_crowd_feet(stage_path, roots) -> dict:
+    """Planted-foot slide of the crowd's characters (their SkelRoot paths ``roots``) as written
+    in the baked stage, read through UsdSkel by the detector of :mod:`runtime.footslide` (not
+    the synthesizer's contacts): mean, p95, sliding share, lowest
+    foot, knee flexion range, ``within_limits``."""
+    from ..footslide import feet_report
+    return feet_report(stage_path, roots)

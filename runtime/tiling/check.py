@@ -36,7 +36,7 @@ from ..motion.planar import rotate_xz, wrap_angle
 from .region import Region, minimum_image
 from .result import TilingResult
 
-__all__ = ["TilingCheckReport", "check_tiling", "check_repeating", "layout_copies"]
+__all__ = ["TilingCheckReport", "check_tiling", "check_repeating", "layout_copies", "check_tiling_feet"]
 
 
 @dataclass
@@ -344,3 +344,10 @@ def check_repeating(res, **kw) -> TilingCheckReport:
     rep = check_tiling(lay, wrap=(False, res.region.wrap_time), **kw)
     rep.links_disagree = 0
     return rep
+
+
+def check_tiling_feet(stage_path, roots) -> dict:
+    """Planted-foot slide of tiled characters (their SkelRoot paths ``roots``) as written in a
+    baked stage, measured like the crowd's (:func:`runtime.footslide.feet_report`)."""
+    from ..footslide import feet_report
+    return feet_report(stage_path, roots)
