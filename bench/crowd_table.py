@@ -203,7 +203,43 @@ def table1(names, quick, quiet):
             print(f"    (loading the sample, library and roadmap took {load_s:.1f} s, not counted)")
 
 
-def fig11(quick, quiet, spacings=None):
+def plot_fig11(rows, path, title):
+    """Figure 11 as a picture: planning seconds per character against grid spacing (rows:
+    (spacing, seconds per character, passed)), written atomically to ``path`` (PNG)."""
+    import os
+    import tempfile
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = sorted(rows)
+    fig, ax = plt.subplots(figsize=(6.0, 3.6), dpi=120)
+    xs = [r[0] for r in rows]
+    ys = [r[1] for r in rows]
+    ax.plot(xs, ys, "o-", color="#2a6fb0", label="crowdweave (this machine)")
+    for x, y, ok in rows:
+        ax.annotate("pass" if ok else "FAIL", (x, y), textcoords="offset points", xytext=(0, 7), ha="center",
+                    fontsize=8, color="#2a7a2a" if ok else "#b02a2a")
+    ax.set_xlabel("grid spacing (m)")
+    ax.set_ylabel("planning time per character (s)")
+    ax.set_title(title, fontsize=9)
+    ax.invert_xaxis()                    # denser to the right, as the paper reads
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(suffix=".png", dir=d)
+    os.close(fd)
+    try:
+        fig.savefig(tmp)
+        os.replace(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def fig11(quick, quiet, spacings=None, plot=None):
     import make_samples
     from runtime.crowd.scenario import parse_scenario
     cols, rows = (10, 6) if quick else (20, 15)
@@ -217,6 +253,7 @@ def fig11(quick, quiet, spacings=None):
     print(head)
     print("-" * len(head))
     ref = None
+    points = []
     for sp in sorted(spacings, reverse=True):        # widest first: each row prints its ratio when done
         data = make_samples.grid_scenario(cols, rows, spacing=sp, seed=0, name=f"grid{cols * rows}-{sp:g}m")
         sc = parse_scenario(data, f"<grid spacing {sp:g}>", node_labels=labels)
@@ -224,6 +261,11 @@ def fig11(quick, quiet, spacings=None):
         ref = ref or r["per_char"]
         print(f"{sp:>7.1f}m {r['per_char']:>10.3f}s {r['total']:>8.2f}s {r['duration']:>8.1f}s {r['warnings']:>5} "
               f"{r['per_char'] / ref:>9.2f}x {reused(r):>8}  {verdict(r)}", flush=True)
+        points.append((sp, r["per_char"], bool(r["passed"])))
+    if plot:
+        plot_fig11(points, plot, f"Figure 11 (Sung, Kovar and Gleicher 2005): {cols * rows} characters, "
+                                 f"{cols} x {rows} grid to a translated grid")
+        print(f"(Figure 11 drawn to {plot})")
 
 
 def fig12(quick, quiet):
@@ -257,6 +299,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-reuse", action="store_true",
                     help="every character searches for its own motion (no reuse of motions between characters "
                          "with the same task): the paper's method, and the planning times its Figure 11 shows")
+    ap.add_argument("--plot", default=None, metavar="PNG",
+                    help="draw Figure 11 (time per character against spacing) to this PNG file")
     args = ap.parse_args(argv)
     global REUSE
     REUSE = not args.no_reuse
@@ -274,7 +318,7 @@ def main(argv=None) -> int:
     if args.only in (None, "table1", *names):
         table1([args.only] if args.only in names else names, args.quick, quiet)
     if args.only in (None, "fig11"):
-        fig11(args.quick, quiet, spacings)
+        fig11(args.quick, quiet, spacings, args.plot)
     if args.only in (None, "fig12"):
         fig12(args.quick, quiet)
     return 0
