@@ -820,3 +820,8 @@ def test_compiled_static_filter_and_sdf_agree_with_numpy(default_graph):
     plain = pairs_static_clear(lib, lambda xz: static(xz), 0.02, F, B, i, j, start, goal, slack=0.1)
     assert 0 < fast.sum() < P              # some pairs hit the obstacles, some do not
     assert np.array_equal(fast, plain)
+    memo = {}                              # a search's memo of parts tested: same answers, second time from it
+    half = pairs_static_clear(lib, static, 0.02, F[:150], B[:150], i[:150], j[:150], start, goal, slack=0.1, memo=memo)
+    again = pairs_static_clear(lib, static, 0.02, F, B, i, j, start, goal, slack=0.1, memo=memo)
+    assert np.array_equal(half, plain[:150]) and np.array_equal(again, plain)
+    assert len(memo["f"]) > 0

@@ -117,21 +117,22 @@ def pair_costs(lib: MotionLibrary, params: SearchParams, F: np.ndarray, nf: np.n
 
 
 def pairs_static_clear(lib: MotionLibrary, static, margin: float, F, B, i, j, start, goal,
-                       slack: float = 0.0) -> np.ndarray:
+                       slack: float = 0.0, memo: dict | None = None) -> np.ndarray:
     """Per pair: whether its two unspliced parts -- M_f[:i] placed at the start and
     M_b[j:] placed at the goal -- clear the static obstacles at the library's collision
     samples (bounding cylinder + ``margin``). A pair that fails cannot pass the final
     test once spliced (the displacement maps move it a few cm at most), so the search
     drops it before splicing, instead of converging on motions that cut a corner.
     F, B as in :meth:`pair_costs` (rows of the pairs to test). ``slack``: metres of
-    overlap forgiven (the displacement maps may still move a grazing part clear)."""
+    overlap forgiven (the displacement maps may still move a grazing part clear). ``memo``: a
+    dict one search keeps (fixed start and goal) so the compiled path tests each part once."""
     g = lib.g
     P = len(F)
     if static is None or P == 0:
         return np.ones(P, dtype=bool)
     grid = getattr(static, "compiled_args", None) if kernels.ENABLED else None
     if grid is not None:
-        return kernels.pairs_static_clear(lib, grid, margin, F, B, i, j, start, goal, slack)
+        return kernels.pairs_static_clear(lib, grid, margin, F, B, i, j, start, goal, slack, memo)
     Lf, Lb = F.shape[1], B.shape[1]
     fv, bv = F >= 0, B >= 0
     # the configuration each edge starts from

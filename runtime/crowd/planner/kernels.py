@@ -292,26 +292,29 @@ if AVAILABLE:
         return True
 
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
-    def _pairs_static_clear(F, B, i, j, start, goal, disp, samp_ptr, samp_frame, frame_xz, frame_heading,
+    def _parts_static_clear(rows, cut, forward, cfg0, disp, samp_ptr, samp_frame, frame_xz, frame_heading,
                             frame_radius, need, ox, oz, res, values, gmargin, offset, out):  # pragma: no cover
-        P, Lb = F.shape[0], B.shape[1]
+        """Per row: a forward part rows[p, :cut[p]] placed at ``cfg0`` (``forward``), or a
+        backward part rows[p, cut[p]:] ending at ``cfg0``, clears the static obstacles."""
+        P, L = rows.shape
         for p in range(P):
             ok = True
-            x, z, h = start[0], start[1], start[2]
-            for c in range(i[p]):
-                e = F[p, c]
-                if e < 0:
-                    continue
-                if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading, frame_radius,
-                                          need, ox, oz, res, values, gmargin, offset):
-                    ok = False
-                    break
-                ch, sh = np.cos(h), np.sin(h)
-                x, z, h = x + ch * disp[e, 0] + sh * disp[e, 1], z - sh * disp[e, 0] + ch * disp[e, 1], h + disp[e, 2]
-            if ok:
-                x, z, h = goal[0], goal[1], goal[2]
-                for c in range(Lb - 1, max(j[p], 0) - 1, -1):
-                    e = B[p, c]
+            x, z, h = cfg0[0], cfg0[1], cfg0[2]
+            if forward:
+                for c in range(cut[p]):
+                    e = rows[p, c]
+                    if e < 0:
+                        continue
+                    if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
+                                              frame_radius, need, ox, oz, res, values, gmargin, offset):
+                        ok = False
+                        break
+                    ch, sh = np.cos(h), np.sin(h)
+                    x, z, h = (x + ch * disp[e, 0] + sh * disp[e, 1], z - sh * disp[e, 0] + ch * disp[e, 1],
+                               h + disp[e, 2])
+            else:
+                for c in range(L - 1, max(cut[p], 0) - 1, -1):
+                    e = rows[p, c]
                     if e < 0:
                         break
                     h = h - disp[e, 2]
@@ -325,18 +328,51 @@ if AVAILABLE:
             out[p] = ok
 
 
-def pairs_static_clear(lib, grid_args, margin: float, F, B, i, j, start, goal, slack: float):
-    """The randomized search's static filter (:func:`runtime.crowd.planner.costs.pairs_static_clear`)
-    in one compiled loop per pair, stopping at a pair's first sample that cuts into an obstacle.
-    ``grid_args``: :attr:`runtime.crowd.clearance.Clearance.compiled_args`. Same test, with the
-    clips' configurations accumulated one after another from the start (forward part) and
-    back from the goal (backward part)."""
-    g = lib.g
-    out = np.empty(len(F), dtype=np.bool_)
-    ox, oz, res, values, gmargin, offset = grid_args
-    _pairs_static_clear(np.ascontiguousarray(F, np.int64), np.ascontiguousarray(B, np.int64),
-                        np.ascontiguousarray(i, np.int64), np.ascontiguousarray(j, np.int64),
-                        np.asarray(start, np.float64), np.asarray(goal, np.float64), lib.disp, lib.samp_ptr,
-                        lib.samp_frame, g.frame_xz, g.frame_heading, g.frame_radius, float(margin) - float(slack),
-                        ox, oz, res, values, gmargin, offset, out)
+def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
+    """:func:`_parts_static_clear` of the parts not in ``memo`` (keyed by the part's clips)."""
+    keys = [(rows[p, :cut[p]] if forward else rows[p, cut[p]:]).tobytes() for p in range(len(rows))]
+    out = np.empty(len(rows), dtype=np.bool_)
+    todo = []
+    for p, k in enumerate(keys):
+        v = memo.get(k) if memo is not None else None
+        if v is None:
+            todo.append(p)
+        else:
+            out[p] = v
+    if todo:
+        t = np.array(todo, dtype=np.int64)
+        got = np.empty(len(t), dtype=np.bool_)
+        g = lib.g
+        ox, oz, res, values, gmargin, offset = grid_args
+        _parts_static_clear(np.ascontiguousarray(rows[t], np.int64), np.ascontiguousarray(cut[t], np.int64),
+                            forward, np.asarray(cfg0, np.float64), lib.disp, lib.samp_ptr, lib.samp_frame,
+                            g.frame_xz, g.frame_heading, g.frame_radius, need, ox, oz, res, values, gmargin,
+                            offset, got)
+        out[t] = got
+        if memo is not None:
+            for q, p in enumerate(todo):
+                memo[keys[p]] = bool(got[q])
     return out
+
+
+def pairs_static_clear(lib, grid_args, margin: float, F, B, i, j, start, goal, slack: float, memo=None):
+    """The randomized search's static filter (:func:`runtime.crowd.planner.costs.pairs_static_clear`)
+    in compiled loops, each part stopping at its first sample that cuts into an obstacle.
+    ``grid_args``: :attr:`runtime.crowd.clearance.Clearance.compiled_args`. The forward part
+    M_f[:i] (placed at the start) and the backward part M_b[j:] (ending at the goal) are tested
+    apart; ``memo`` (a dict kept by one search: its start and goal are fixed) remembers every
+    part tested, since the pairs of one search share most of their parts."""
+    F = np.asarray(F, np.int64)
+    B = np.asarray(B, np.int64)
+    i = np.asarray(i, np.int64)
+    j = np.asarray(j, np.int64)
+    need = float(margin) - float(slack)
+    fm = bm = None
+    if memo is not None:
+        fm = memo.setdefault("f", {})
+        bm = memo.setdefault("b", {})
+    ok = _parts_clear(lib, grid_args, need, F, i, start, True, fm)
+    if ok.any():
+        rest = np.flatnonzero(ok)
+        ok[rest] = _parts_clear(lib, grid_args, need, B[rest], j[rest], goal, False, bm)
+    return ok

@@ -66,6 +66,7 @@ class RandomizedSearch:
         self.iterations = 0
         self.best = None
         self.retimes = params.retime_budget     # colliding splices that may be tried at other durations
+        self.static_memo: dict = {}             # parts of pairs already tested against static obstacles
 
     def costs(self, F, nf, B, nb):
         return pair_costs(self.lib, self.p, F, nf, B, nb, self.start.xzh, self.goal_cfg, int(self.start.node),
@@ -186,7 +187,8 @@ class RandomizedSearch:
                 near = np.flatnonzero(cn <= p.static_filter * eps_p)
                 if len(near):
                     okn = pairs_static_clear(self.lib, self.collider.static, p.margin, Fn[near], Bn[near], inn[near],
-                                             jn[near], self.start.xzh, self.goal_cfg, slack=p.static_filter_slack)
+                                             jn[near], self.start.xzh, self.goal_cfg, slack=p.static_filter_slack,
+                                             memo=self.static_memo)
                     cn[near[~okn]] = np.inf
             allc = np.concatenate([costp, cn])
             Fa, Ba = np.concatenate([Fp, Fn]), np.concatenate([Bp, Bn])
