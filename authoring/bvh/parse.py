@@ -28,7 +28,7 @@ import numpy as np
 from runtime.assets import read_bounded
 from runtime.limits import MAX_BVH_BYTES
 
-__all__ = ["BVHError", "MAX_ABS_VALUE", "Tokens", "Joint", "as_text", "split_lines", "parse_number",
+__all__ = ["BVHError", "MAX_ABS_VALUE", "Tokens", "Joint", "as_text", "eof_line", "split_lines", "parse_number",
            "parse_hierarchy", "parse_motion_header", "parse_frames"]
 
 # Largest magnitude accepted for any number in a file (degrees, file units, seconds): values
@@ -79,7 +79,7 @@ class Tokens:
         return True
 
     def eof_line(self) -> int:
-        return max(1, len(self.lines))
+        return eof_line(self.lines)
 
     def next(self, what: str):
         if not self._fill():
@@ -118,6 +118,15 @@ def _decode(data: bytes, label: str) -> str:
         head = data[:e.start].replace(b"\r\n", b"\n").replace(b"\r", b"\n")
         line = head.count(b"\n") + 1
         raise BVHError(label, line, f"not UTF-8 text (byte 0x{data[e.start]:02x})") from None
+
+
+def eof_line(lines: list[str]) -> int:
+    """The line an "unexpected end of file" names: the one after the last line with text
+    (blank lines at the end of a file are not where it stopped), within the file."""
+    last = len(lines)
+    while last > 0 and not lines[last - 1].strip():
+        last -= 1
+    return max(1, min(len(lines), last + 1))
 
 
 def split_lines(text: str) -> list[str]:
@@ -263,7 +272,7 @@ def parse_motion_header(lines, start, fail):
         while i < len(lines) and not lines[i].strip():
             i += 1
         if i >= len(lines):
-            fail(max(1, len(lines)), f"unexpected end of file (expected {what})")
+            fail(eof_line(lines), f"unexpected end of file (expected {what})")
         i += 1
         return lines[i - 1].strip(), i
 
