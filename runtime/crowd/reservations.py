@@ -41,14 +41,15 @@ def _hold_hits_numpy(frames, xz, radius, margin, ignore_owner, first_only, rows,
 
 
 if _nb is not None:
+    from .spacetime import push_hit
+
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _hold_hits_compiled(frames, xz, radius, margin, ignore_owner, first_only, rows, active, cell, ox, oz, nx,
                             nz, start, items):  # pragma: no cover - compiled
         """As :func:`_hold_hits_numpy`, through the holds' 2D grid (3 x 3 cells per sample)."""
         n = len(frames)
-        cap = 16
-        out_q = np.empty(cap, np.int64)
-        out_o = np.empty(cap)
+        out_q = np.empty(16, np.int64)
+        out_o = np.empty(16)
         m = 0
         for s in range(n):
             ix = np.int64(np.floor((xz[s, 0] - ox) / cell))
@@ -65,15 +66,7 @@ if _nb is not None:
                         if not active[h] or np.int64(rows[h, 3]) == ignore_owner or frames[s] >= rows[h, 4]:
                             continue
                         if np.hypot(rows[h, 0] - xz[s, 0], rows[h, 1] - xz[s, 1]) < rows[h, 2] + radius[s] + margin:
-                            if m == cap:
-                                cap *= 2
-                                q2 = np.empty(cap, np.int64)
-                                o2 = np.empty(cap)
-                                q2[:m] = out_q[:m]
-                                o2[:m] = out_o[:m]
-                                out_q, out_o = q2, o2
-                            out_q[m] = s
-                            out_o[m] = rows[h, 3]
+                            out_q, out_o = push_hit(out_q, out_o, m, s, rows[h, 3])
                             m += 1
                             if first_only:
                                 return out_q[:m], out_o[:m]

@@ -58,14 +58,27 @@ if _nb is not None:
         return (np.int64((np.uint64(k & _CELL) * golden) >> shift) + (k >> (2 * _BITS))) & (nb - 1)
 
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def push_hit(out_q, out_o, m, s, o):  # pragma: no cover - compiled
+        """Store the overlapping pair (query sample ``s``, owner ``o``) at ``m`` in the output
+        buffers, doubling them when full; returns the buffers."""
+        if m == len(out_q):
+            q2 = np.empty(2 * m, np.int64)
+            o2 = np.empty(2 * m)
+            q2[:m] = out_q[:m]
+            o2[:m] = out_o[:m]
+            out_q, out_o = q2, o2
+        out_q[m] = s
+        out_o[m] = o
+        return out_q, out_o
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _hits_compiled(frames, xz, radius, margin, ignore_owner, first_only, cell, keys, rows, nxt, head,
                        version, shift, golden):  # pragma: no cover - compiled
         """(query sample indices, stored owners) of the overlapping pairs; ``first_only``
         stops at the first. Same keys, hash and test as the numpy walk."""
         n = len(frames)
-        cap = 64
-        out_q = np.empty(cap, np.int64)
-        out_o = np.empty(cap)
+        out_q = np.empty(64, np.int64)
+        out_o = np.empty(64)
         m = 0
         for s in range(n):
             ix = np.int64(np.floor(xz[s, 0] / cell))
@@ -81,15 +94,7 @@ if _nb is not None:
                             if rows[r, 4] == version[np.int64(o)] and np.int64(o) != ignore_owner:
                                 d = np.hypot(rows[r, 0] - xz[s, 0], rows[r, 1] - xz[s, 1])
                                 if d < rows[r, 2] + radius[s] + margin:
-                                    if m == cap:
-                                        cap *= 2
-                                        q2 = np.empty(cap, np.int64)
-                                        o2 = np.empty(cap)
-                                        q2[:m] = out_q[:m]
-                                        o2[:m] = out_o[:m]
-                                        out_q, out_o = q2, o2
-                                    out_q[m] = s
-                                    out_o[m] = o
+                                    out_q, out_o = push_hit(out_q, out_o, m, s, o)
                                     m += 1
                                     if first_only:
                                         return out_q[:m], out_o[:m]
