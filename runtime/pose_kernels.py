@@ -165,6 +165,15 @@ if AVAILABLE:
                 return 1.0
         return min(max(root, 0.0), 1.0)
 
+    @_nb.njit(cache=True, inline="always")
+    def _hip_drop(P, i, hip, ankle, dx, dz, r):  # pragma: no cover - compiled
+        """How far the hip must come down (m) for a leg spanning ``r`` from hip to ankle to
+        reach its ankle moved by (dx, dz) on the ground (negative: it reaches already)."""
+        vx = np.float64(P[0, i, ankle]) + dx - P[0, i, hip]
+        vy = np.float64(P[1, i, ankle]) - P[1, i, hip]
+        vz = np.float64(P[2, i, ankle]) + dz - P[2, i, hip]
+        return -vy - np.sqrt(max(r * r - vx * vx - vz * vz, 0.0))
+
     @_nb.njit(cache=True, boundscheck=False, nogil=True, inline="always")
     def _lock_one(P, i, planted, fa, fb, t, h, hip, knee, ankle, toe, foot, thigh, shin, rmin, rmax,
                   locked, target, res, kcount, blend, maxc, maxdrop):  # pragma: no cover - compiled
@@ -219,21 +228,13 @@ if AVAILABLE:
         for s in range(2):
             dx = d0x if s == 0 else d1x
             dz = d0z if s == 0 else d1z
-            vx = np.float64(P[0, i, ankle[s]]) + dx - P[0, i, hip[s]]
-            vy = np.float64(P[1, i, ankle[s]]) - P[1, i, hip[s]]
-            vz = np.float64(P[2, i, ankle[s]]) + dz - P[2, i, hip[s]]
-            h2 = vx * vx + vz * vz
             if dx != 0 or dz != 0:
-                need = max(need, -vy - np.sqrt(max(rmax[s] * rmax[s] - h2, 0.0)))
+                need = max(need, _hip_drop(P, i, hip[s], ankle[s], dx, dz, rmax[s]))
         drop = 0.0
         if need > 0.0:       # no lower than the most bent knee allows either leg
             for s in range(2):
-                dx = d0x if s == 0 else d1x
-                dz = d0z if s == 0 else d1z
-                vx = np.float64(P[0, i, ankle[s]]) + dx - P[0, i, hip[s]]
-                vy = np.float64(P[1, i, ankle[s]]) - P[1, i, hip[s]]
-                vz = np.float64(P[2, i, ankle[s]]) + dz - P[2, i, hip[s]]
-                room = min(room, -vy - np.sqrt(max(rmin[s] * rmin[s] - vx * vx - vz * vz, 0.0)))
+                room = min(room, _hip_drop(P, i, hip[s], ankle[s], d0x if s == 0 else d1x, d0z if s == 0 else d1z,
+                                           rmin[s]))
             drop = min(max(min(need, room), 0.0), maxdrop)
         for s in range(2):
             dx = d0x if s == 0 else d1x
