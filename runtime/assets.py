@@ -244,6 +244,9 @@ def load_pack(path, kind: str | None = None, version: int | None = None,
         raise AssetError(path, "checksum mismatch (file is corrupt or was modified)")
     if kind is not None and body["kind"] != kind:
         raise AssetError(path, f"wrong kind: expected {kind!r}, file holds {body['kind']!r}")
+    if version is not None and body["version"] < version:
+        raise AssetError(path, f"unsupported version {body['version']} (this build reads version {version}): the pack "
+                               f"was written by an older crowdweave; rebuild it from its sources")
     if version is not None and body["version"] != version:
         raise AssetError(path, f"unsupported version {body['version']} (this build reads version {version})")
     if min_version is not None and body["version"] < min_version:

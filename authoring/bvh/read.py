@@ -17,6 +17,9 @@ with the world placement of frame 0 kept in ``clip.origin``.
 * **Scale, synthetic first frame, frame rate**: by skeleton family and release
   (:mod:`.families`). ``fps=`` resamples (slerp, :func:`runtime.motion.ops.resample`) after
   dropping frame 0.
+* **Foot contacts** (``clip.contacts``) are detected at the file's own rate
+  (:func:`runtime.motion.contacts.clip_contacts`) before resampling, for skeletons whose leg
+  joints are known; otherwise ``clip.contacts`` is None.
 
 Problems reading the file itself (missing, unreadable) raise the usual ``OSError``; a
 malformed file raises :class:`~.parse.BVHError` (:mod:`.parse`).
@@ -29,6 +32,7 @@ import numpy as np
 
 from runtime.motion import ops, quat
 from runtime.motion.clip import Clip
+from runtime.motion.contacts import clip_contacts, contact_summary
 from runtime.motion.skeleton import Skeleton
 
 from .families import default_scale, detect_synthetic_first_frame, snap_fps
@@ -164,6 +168,10 @@ def read_bvh(path_or_text, scale=None, drop_first_frame="auto", fps=None, name=N
                     tuple((e, tuple(float(x) * scale for x in o)) for e, o in end_sites))
     src_fps = snap_fps(frame_time)
     clip = Clip.from_world(skel, src_fps, root_pos, rot, keep_origin=True)
+    try:
+        clip = clip.copy(contacts=clip_contacts(clip))
+    except ValueError:                     # no known leg joints: contacts unknown
+        pass
     if fps is not None:
         clip = ops.resample(clip, fps=float(fps))
     return BVHMotion(clip=clip, channel_orders=tuple(orders), frame_time=frame_time, source_fps=src_fps,
@@ -194,4 +202,5 @@ def bvh_summary(path, **read_kwargs) -> dict:
         "dropped_first_frame": m.dropped_first_frame,
         "channel_orders": dict(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))),
         "notes": list(m.notes),
+        "contacts": contact_summary(c.contacts, "detected") if c.contacts is not None else "unknown (no known leg joints)",
     }

@@ -22,6 +22,9 @@ def _pack_summary(path: Path) -> dict:
         return out
     out = {"kind": pk.kind, "version": pk.version,
            "arrays": {k: list(v.shape) for k, v in pk.arrays.items()}}
+    if "frame_contacts" in pk.arrays:
+        from runtime.motion.contacts import contact_summary
+        out["contacts"] = contact_summary(pk.arrays["frame_contacts"], "pack")
     for k, v in pk.meta.items():
         if isinstance(v, (int, float, str, bool)):
             out[k] = v
@@ -34,6 +37,14 @@ def _take_dir_summary(path: Path) -> dict:
     if not files:
         raise FileNotFoundError(f"{path}: no .bvh files in this directory")
     takes = [bvh_summary(f) for f in files]
+    for f, t in zip(files, takes):
+        sidecar = f.with_suffix(".labels.json")
+        if sidecar.exists():
+            from authoring.motion_graph.sources import read_contacts
+            from runtime.motion.contacts import contact_summary
+            c = read_contacts(sidecar, t["source_frames"])
+            if c is not None:
+                t["contacts"] = contact_summary(c, "labels")
     out = {"directory": str(path), "takes": len(takes),
            "frames": sum(t["frames"] for t in takes),
            "duration_s": round(sum(t["duration"] for t in takes), 2),
@@ -66,6 +77,7 @@ def _print(d, indent=0):
 def run(args) -> int:
     from authoring.bvh import BVHError, bvh_summary
     from authoring.commands import CLIError
+    from authoring.motion_graph.sources import LabelError
     from runtime.assets import AssetError
     p = Path(args.path)
     try:
@@ -79,7 +91,7 @@ def run(args) -> int:
             d = _pack_summary(p)
         else:
             raise CLIError(f"{p}: don't know how to summarise this (expected .bvh, .cwpack or a directory)")
-    except (BVHError, AssetError, FileNotFoundError) as e:
+    except (BVHError, AssetError, FileNotFoundError, LabelError) as e:
         raise CLIError(str(e)) from None
     if args.json:
         print(json.dumps(d, indent=2, default=str))

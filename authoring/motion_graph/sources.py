@@ -2,7 +2,8 @@
 
 A take directory holds ``*.bvh`` files with ``<stem>.labels.json`` sidecars
 (``{"fps": .., "frames": .., "segments": [[start, end_exclusive, label], ...]}``, frames at
-the BVH's own rate). A BVH file gets its labels from ``labels`` (a sidecar path, or a single
+the BVH's own rate; an optional ``"contacts": {point: [[start, end_exclusive], ...]}`` gives the
+foot contacts, else they are the ones detected when the BVH was read). A BVH file gets its labels from ``labels`` (a sidecar path, or a single
 label for every frame), else from a sidecar beside it, else they are derived from the motion
 (:mod:`.derive`; ``labels="derive"`` asks for that even beside a sidecar). Derived labels
 also say which frames are not flat-ground walking: the file is cut into the runs of usable
@@ -14,18 +15,19 @@ which takes came from it, for the build report (:mod:`.report`).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from runtime.motion import SkeletonMismatchError, ops
+from runtime.motion.contacts import CONTACT_POINTS
 
 from ..bvh import read_bvh
 from .build import SourceClip
 from .derive import DeriveParams, derive_labels, usable_runs
 
-__all__ = ["load_takes", "load_sources", "read_labels", "LabelError", "SourceFile", "DERIVE"]
+__all__ = ["load_takes", "load_sources", "read_labels", "read_contacts", "LabelError", "SourceFile", "DERIVE"]
 
 DERIVE = "derive"     # the ``labels`` value that derives labels from the motion
 
@@ -75,6 +77,32 @@ def read_labels(path, n_frames_src: int) -> list[str]:
     return out
 
 
+def read_contacts(path, n_frames_src: int) -> np.ndarray | None:
+    """Contacts ``(n_frames_src, 4)`` bool from a sidecar's ``"contacts"`` runs (source rate),
+    or None when it has none."""
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise LabelError(f"{path}: not a label sidecar ({type(e).__name__}: {e})") from None
+    runs_ = d.get("contacts") if isinstance(d, dict) else None
+    if runs_ is None:
+        return None
+    if not isinstance(runs_, dict) or set(runs_) != set(CONTACT_POINTS):
+        raise LabelError(f"{path}: contacts must map each of {', '.join(CONTACT_POINTS)} to [[start, end], ...]")
+    out = np.zeros((n_frames_src, len(CONTACT_POINTS)), dtype=bool)
+    for k, name in enumerate(CONTACT_POINTS):
+        for j, run in enumerate(runs_[name]):
+            try:
+                s, e = int(run[0]), int(run[1])
+            except (ValueError, TypeError, IndexError):
+                raise LabelError(f"{path}: contacts {name} run {j} is not [start, end]") from None
+            if not (0 <= s < e <= n_frames_src):
+                raise LabelError(f"{path}: contacts {name} run {j} [{s}, {e}) outside 0..{n_frames_src}")
+            out[s:e, k] = True
+    return out
+
+
 def _resample_labels(labels: list[str], src_fps: float, n_out: int, dst_fps: float, offset: int) -> list[str]:
     idx = np.clip(np.round(np.arange(n_out) * src_fps / dst_fps).astype(np.int64) + offset, 0, len(labels) - 1)
     return [labels[i] for i in idx]
@@ -91,6 +119,10 @@ def _file_takes(m, path: Path, fps: float, labels_arg, sidecar: Path | None, der
         src = [str(labels_arg)] * m.source_frames
     elif labels_arg is None and sidecar is not None and sidecar.exists():
         src = read_labels(sidecar, m.source_frames)
+        contacts = read_contacts(sidecar, m.source_frames)
+        if contacts is not None:
+            idx = np.clip(np.round(np.arange(n) * m.source_fps / fps).astype(np.int64) + offset, 0, len(contacts) - 1)
+            m = replace(m, clip=m.clip.copy(contacts=contacts[idx]))
     if src is not None:
         labs = _resample_labels(src, m.source_fps, n, fps, offset)
         info = SourceFile(str(path), fps, labs, derived=False, takes={path.stem: 0})

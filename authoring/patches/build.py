@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from runtime.motion import Clip, quat
+from runtime.motion.contacts import contacts_of
 from runtime.motion.planar import rotate_xz
 from runtime.tiling.patch import Constraint, Fragment, Patch, PatchLibrary
 
@@ -109,7 +110,7 @@ def _same_layout(a, b) -> bool:
 
 def _world_arrays(clip: Clip, scale: float):
     pos, _ = clip.world_root()
-    return pos[:, [0, 2]] * scale, clip.world_heading(), clip.root_height * scale, clip.rotations
+    return pos[:, [0, 2]] * scale, clip.world_heading(), clip.root_height * scale, clip.rotations, contacts_of(clip)
 
 
 def _rep_pose(arrs, f):
@@ -364,7 +365,7 @@ def _node_features(graph, sq):
 
 
 def _fragment(arr, a, b, origin, h0, cls_in, cls_out, rep_of, p, snap_err, pose_fn):
-    xz, hd, ht, rot = arr
+    xz, hd, ht, rot, contacts = arr
     r = rot[a:b + 1].astype(np.float64)
     h = np.asarray(ht[a:b + 1], np.float64)
     for at_start, cls in ((True, cls_in), (False, cls_out)):
@@ -376,7 +377,8 @@ def _fragment(arr, a, b, origin, h0, cls_in, cls_out, rep_of, p, snap_err, pose_
             after = pose_fn(r[i0], h[i0])
             snap_err[cls] = max(snap_err.get(cls, 0.0), float(np.sqrt(np.mean(np.sum((before - after) ** 2, -1)))))
     pxz = rotate_xz(xz[a:b + 1] - origin, -h0)
-    return Fragment(0.0, pxz, hd[a:b + 1] - h0, h.astype(np.float32), r.astype(np.float32), cls_in, cls_out)
+    return Fragment(0.0, pxz, hd[a:b + 1] - h0, h.astype(np.float32), r.astype(np.float32), cls_in, cls_out,
+                    contacts=contacts[a:b + 1])
 
 
 def _pose_fn(skel):

@@ -10,8 +10,10 @@ session seed; the same seed gives byte-identical files.
 
 Files: ``take_NNN.bvh`` (31-joint CMU MotionBuilder-family hierarchy, ZYX channels, CMU
 units), ``take_NNN.labels.json`` (``{"fps", "frames", "segments": [[start, end_exclusive,
-label], ...], "hubs": [[frame, hub], ...], "props": [...]}``; the segments cover every
-frame) and ``session.json`` (generator version, seed, minutes, fps, files with sha256).
+label], ...], "hubs": [[frame, hub], ...], "props": [...], "contacts": {point: [[start,
+end_exclusive], ...]}}``; the segments cover every frame; ``contacts`` lists, per contact point
+of :data:`runtime.motion.contacts.CONTACT_POINTS`, the runs of frames it is on the ground, from
+the generator's foot targets, :mod:`.contacts`) and ``session.json`` (generator version, seed, minutes, fps, files with sha256).
 """
 from __future__ import annotations
 
@@ -26,20 +28,22 @@ import numpy as np
 from runtime.assets import atomic_write_bytes
 from runtime.limits import MAX_CAPTURE_MINUTES, MAX_SEED, MAX_TAKE_MINUTES
 from runtime.motion import Clip
+from runtime.motion.contacts import CONTACT_POINTS
 from runtime.motion.planar import wrap_angle
 
 from . import activities as act
 from . import body
+from .contacts import contact_labels
 from .gait import WALK
 from .group import concat_groups
 from .locomotion import run_group
 from .rig import solve
 
-__all__ = ["GENERATOR_VERSION", "LABELS", "GeneratedTake", "generate_session", "write_session"]
+__all__ = ["GENERATOR_VERSION", "LABELS", "GeneratedTake", "generate_session", "write_session", "contact_runs"]
 
-GENERATOR_VERSION = "1.0"
+GENERATOR_VERSION = "1.1"
 LABELS = ("walk", "start", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
-          "pick_up", "carry", "put_down")
+          "pick_up", "carry", "carry_idle", "put_down")
 VOLUME_RADIUS = 4.0        # metres; walks bend back towards the centre beyond this
 
 
@@ -60,8 +64,15 @@ class GeneratedTake:
             "segments": [[int(a), int(b), lab] for a, b, lab in self.segments],
             "hubs": [[int(f), h] for f, h in self.hubs],
             "props": self.props,
+            "contacts": {name: contact_runs(self.clip.contacts[:, k]) for k, name in enumerate(CONTACT_POINTS)},
             "generator": f"crowdweave.procedural {GENERATOR_VERSION}",
         }
+
+
+def contact_runs(flags: np.ndarray) -> list:
+    """[[start, end_exclusive], ...] of the runs of True in ``flags``."""
+    d = np.diff(np.concatenate([[0], np.asarray(flags, dtype=np.int8), [0]]))
+    return [[int(a), int(b)] for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1))]
 
 
 def _steer_bias(state):
@@ -148,7 +159,7 @@ def _assemble(skel, groups, fps) -> GeneratedTake:
     F = c.num_frames
     hubs.append((F - 1, "stand"))             # the final frame is the end hub
     sol = solve(skel, c)
-    clip = Clip.from_world(skel, fps, sol.root_pos, sol.local)
+    clip = Clip.from_world(skel, fps, sol.root_pos, sol.local).copy(contacts=contact_labels(c, fps))
     diag = {
         "max_leg_reach_error_m": float(sol.leg_reach_error.max()),
         "max_arm_reach_error_m": float(sol.arm_reach_error.max()),

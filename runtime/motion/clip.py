@@ -11,7 +11,10 @@ Layout (ARCHITECTURE.md, "Conventions"):
   rotation *with its heading removed* (the tilt/roll the character carries), so the root's
   world rotation is ``from_yaw(origin_heading + root_heading) * rotations[:, 0]``;
 - ``origin`` (3,): (x, z, heading) of frame 0 in the world. Graph edges keep it at zero;
-  imported takes keep where the capture put them.
+  imported takes keep where the capture put them;
+- ``contacts`` (F, 4) bool or None: per frame, which contact points are on the ground, columns
+  in :data:`runtime.motion.contacts.CONTACT_POINTS` order (left heel, left toe, right heel,
+  right toe). None when unknown (:func:`runtime.motion.contacts.clip_contacts` detects them).
 
 Heading is read from the root's lateral (+X) axis, see :func:`quat.yaw`.
 """
@@ -38,6 +41,7 @@ class Clip:
     root_height: np.ndarray
     rotations: np.ndarray
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    contacts: np.ndarray | None = None
 
     def __post_init__(self):
         F = len(self.root_heading)
@@ -51,6 +55,11 @@ class Clip:
         object.__setattr__(self, "origin", np.asarray(self.origin, dtype=np.float64).reshape(3))
         if self.fps <= 0:
             raise ValueError("fps must be positive")
+        if self.contacts is not None:
+            c = np.asarray(self.contacts, dtype=bool)
+            if c.shape != (F, 4):
+                raise ValueError(f"contacts shape {c.shape} != ({F}, 4): 4 flags for each of the {F} frames")
+            object.__setattr__(self, "contacts", c)
 
     # -- basic properties ------------------------------------------------------------------
     @property

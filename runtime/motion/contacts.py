@@ -27,7 +27,9 @@ from . import quat
 from .skeleton import Skeleton
 
 __all__ = ["CONTACT_POINTS", "LegJoints", "leg_joints", "contact_point_positions", "detect_contacts", "clip_contacts",
-           "planted"]
+           "planted", "contacts_of", "contact_summary", "planted_speeds", "slide_figures", "SLIDING"]
+
+SLIDING = 0.10          # m/s: a planted point moving faster than this is sliding
 
 CONTACT_POINTS = ("left_heel", "left_toe", "right_heel", "right_toe")
 
@@ -152,3 +154,46 @@ def clip_contacts(clip, **kw) -> np.ndarray:
     :func:`detect_contacts`)."""
     gr, gp = clip.fk()
     return detect_contacts(contact_point_positions(leg_joints(clip.skeleton), gr, gp), clip.fps, **kw)
+
+
+def contacts_of(clip) -> np.ndarray:
+    """``clip.contacts`` when the clip carries them, else the detected ones (:func:`clip_contacts`);
+    all False for a skeleton without known leg joints. ``(F, 4)`` bool."""
+    if getattr(clip, "contacts", None) is not None:
+        return clip.contacts
+    try:
+        return clip_contacts(clip)
+    except ValueError:                       # no known leg joints
+        return np.zeros((clip.num_frames, len(CONTACT_POINTS)), dtype=bool)
+
+
+def contact_summary(contacts: np.ndarray, source: str) -> dict:
+    """JSON-ready figures of contacts ``(F, 4)``: where they come from (``source``), the share of
+    frames each point is on the ground, and the shares of frames with both, one and no foot
+    planted."""
+    c = np.asarray(contacts, dtype=bool)
+    n = max(len(c), 1)
+    feet = planted(c).sum(axis=1)
+    return {"source": source, **{p: round(float(c[:, k].sum()) / n, 3) for k, p in enumerate(CONTACT_POINTS)},
+            "both_feet": round(float((feet == 2).sum()) / n, 3), "one_foot": round(float((feet == 1).sum()) / n, 3),
+            "no_foot": round(float((feet == 0).sum()) / n, 3)}
+
+
+def planted_speeds(points: np.ndarray, contacts: np.ndarray, fps: float) -> np.ndarray:
+    """Horizontal speed (m/s) ``(F-1, P)`` of each contact point between consecutive frames on
+    which it is in contact on both; NaN elsewhere. ``points`` ``(F, P, 3)``, ``contacts`` ``(F, P)``."""
+    p = np.asarray(points, dtype=np.float64)
+    c = np.asarray(contacts, dtype=bool)
+    v = np.linalg.norm(np.diff(p[..., [0, 2]], axis=0), axis=-1) * fps
+    return np.where(c[1:] & c[:-1], v, np.nan)
+
+
+def slide_figures(speeds: np.ndarray) -> dict:
+    """Mean and 95th percentile (cm/s) of planted-point speeds (NaN = not planted, ignored) and
+    the share of them over :data:`SLIDING`."""
+    v = np.asarray(speeds, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if len(v) == 0:
+        return {"mean_cm_s": 0.0, "p95_cm_s": 0.0, "sliding": 0.0, "samples": 0}
+    return {"mean_cm_s": round(100 * float(v.mean()), 2), "p95_cm_s": round(100 * float(np.percentile(v, 95)), 2),
+            "sliding": round(float((v > SLIDING).mean()), 4), "samples": int(len(v))}

@@ -8,9 +8,11 @@ Per-edge tables the synthesis needs are precomputed:
 ``edge_duration`` (s), ``edge_disp`` (dx, dz, dheading: the planar rigid transform the edge
 applies, in its start frame), the per-frame root path (``frame_xz``, ``frame_heading``
 relative to the edge start), per-frame bounding cylinder (``frame_radius`` about the root's
-vertical axis, ``frame_top``), and labels.
+vertical axis, ``frame_top``), per-frame foot contacts (``frame_contacts`` (T, 4) bool, columns
+:data:`~runtime.motion.contacts.CONTACT_POINTS`), and labels.
 
-Pack: kind ``"motion_graph"``, version :data:`PACK_VERSION`.
+Pack: kind ``"motion_graph"``, version :data:`PACK_VERSION` (version 2 added the contacts; an
+older pack is refused with a message saying to rebuild it).
 """
 from __future__ import annotations
 
@@ -20,13 +22,14 @@ import numpy as np
 
 from ..assets import AssetError, pack_fields, save_pack
 from .clip import Clip
+from .contacts import contact_summary, contacts_of
 from .fk import end_site_positions, forward_kinematics
 from .skeleton import Skeleton, load_motion_pack
 
 __all__ = ["MotionGraph", "PACK_KIND", "PACK_VERSION", "STATES", "edge_tables"]
 
 PACK_KIND = "motion_graph"
-PACK_VERSION = 1
+PACK_VERSION = 2
 STATES = ("walking", "carrying", "sitting")
 TRANSITION = -1  # edge_state of edges that change state
 
@@ -62,10 +65,14 @@ class MotionGraph:
     frame_height: np.ndarray        # (T,)
     frame_radius: np.ndarray        # (T,) float32
     frame_top: np.ndarray           # (T,) float32
+    frame_contacts: np.ndarray | None = None   # (T, 4) bool, CONTACT_POINTS order
     meta: dict = field(default_factory=dict)
     path: str | None = None
 
     def __post_init__(self):
+        if self.frame_contacts is None:
+            self.frame_contacts = np.zeros((len(self.frame_heading), 4), dtype=bool)
+        self.frame_contacts = np.asarray(self.frame_contacts, dtype=bool)
         self.edge_frames = np.diff(self.edge_start)
         self.edge_duration = (self.edge_frames - 1) / self.fps
         last = self.edge_start[1:] - 1
@@ -133,7 +140,7 @@ class MotionGraph:
     def edge_clip(self, e: int) -> Clip:
         a, b = self.edge_start[e], self.edge_start[e + 1]
         return Clip(self.skeleton, self.fps, self.frame_xz[a:b], self.frame_heading[a:b],
-                    self.frame_height[a:b], self.frame_rotations[a:b])
+                    self.frame_height[a:b], self.frame_rotations[a:b], contacts=self.frame_contacts[a:b])
 
     def node_pose_clip(self, n: int) -> Clip:
         """A one-frame clip of a hub pose (for previews and tests)."""
@@ -146,6 +153,7 @@ class MotionGraph:
                    edge_src, edge_dst, edge_state, edge_labels, clips, meta=None) -> "MotionGraph":
         starts = np.concatenate([[0], np.cumsum([c.num_frames for c in clips])]).astype(np.int64)
         radius, top = zip(*(edge_tables(c) for c in clips)) if clips else ((), ())
+        contacts = [contacts_of(c) for c in clips]
         return cls(
             skeleton=skeleton, fps=float(fps),
             node_rotations=np.asarray(node_rotations, dtype=np.float32),
@@ -160,12 +168,13 @@ class MotionGraph:
             frame_height=np.concatenate([c.root_height for c in clips]),
             frame_radius=np.concatenate(radius).astype(np.float32),
             frame_top=np.concatenate(top).astype(np.float32),
+            frame_contacts=np.concatenate(contacts).astype(bool),
             meta=dict(meta or {}))
 
     # -- packs ----------------------------------------------------------------------------------
     _ARRAYS = ("node_rotations", "node_height", "node_state", "edge_src", "edge_dst", "edge_state",
                "edge_start", "frame_rotations", "frame_xz", "frame_heading", "frame_height",
-               "frame_radius", "frame_top")
+               "frame_radius", "frame_top", "frame_contacts")
 
     def save(self, path) -> None:
         meta = dict(self.meta)
@@ -198,6 +207,8 @@ class MotionGraph:
             problems.append("edge_start offsets invalid")
         if self.frame_rotations.shape != (T, J, 4) or len(self.frame_xz) != T:
             problems.append("frame arrays have inconsistent lengths")
+        if self.frame_contacts.shape != (T, 4):
+            problems.append(f"frame_contacts shape {self.frame_contacts.shape}")
         if len(self.node_labels) != N or len(self.edge_labels) != E:
             problems.append("label lists have the wrong length")
         if problems:
@@ -233,4 +244,5 @@ class MotionGraph:
                          "max_parallel": int(pairs.max()) if len(pairs) else 0},
             "heading_change_per_pair": heading_ranges[:10],
             "pruned_edges": self.meta.get("pruned_edges"), "pruned_nodes": self.meta.get("pruned_nodes"),
+            "contacts": contact_summary(self.frame_contacts, "pack"),
         }

@@ -1,6 +1,9 @@
 """Pure functions on clips: cut, sample, resample, append (root-aligned), mirror, reverse.
 
-Each returns a new :class:`Clip`; inputs are never modified.
+Each returns a new :class:`Clip`; inputs are never modified. Contact flags (``Clip.contacts``)
+travel with their frames: cut and reversed with them, resampled to the nearest source frame,
+concatenated, and swapped left for right by :func:`mirror`; a clip without contacts gives a
+clip without contacts (:func:`append` of a clip with and one without drops them).
 """
 from __future__ import annotations
 
@@ -10,7 +13,9 @@ from . import quat
 from .clip import Clip
 from .planar import rotate_xz
 
-__all__ = ["cut", "sample", "resample", "append", "mirror", "reverse"]
+__all__ = ["cut", "sample", "sample_contacts", "resample", "append", "mirror", "reverse", "MIRROR_CONTACTS"]
+
+MIRROR_CONTACTS = np.array([2, 3, 0, 1])   # CONTACT_POINTS columns after a left-right mirror
 
 
 def cut(clip: Clip, start: int, stop: int | None = None) -> Clip:
@@ -23,7 +28,8 @@ def cut(clip: Clip, start: int, stop: int | None = None) -> Clip:
     if not (0 <= start < stop <= n):
         raise IndexError(f"cut [{start}, {stop}) outside a clip of {n} frames")
     sub = clip.copy(root_xz=clip.root_xz[start:stop], root_heading=clip.root_heading[start:stop],
-                    root_height=clip.root_height[start:stop], rotations=clip.rotations[start:stop])
+                    root_height=clip.root_height[start:stop], rotations=clip.rotations[start:stop],
+                    contacts=None if clip.contacts is None else clip.contacts[start:stop])
     # sub's frame 0 is at clip's local (xz, heading)[start]: fold that into the origin
     xz0 = clip.root_xz[start]
     h0 = clip.root_heading[start]
@@ -71,7 +77,16 @@ def resample(clip: Clip, fps: float | None = None, num_frames: int | None = None
     xz, h, y, rot = sample(clip, src)
     rot = quat.unroll(rot, axis=0)
     return clip.copy(fps=float(new_fps), root_xz=xz, root_heading=h, root_height=y,
-                     rotations=rot.astype(np.float32))
+                     rotations=rot.astype(np.float32), contacts=sample_contacts(clip.contacts, src))
+
+
+def sample_contacts(contacts: np.ndarray | None, frames: np.ndarray) -> np.ndarray | None:
+    """Contact flags at fractional frame positions: those of the nearest frame (None stays
+    None)."""
+    if contacts is None:
+        return None
+    idx = np.clip(np.rint(np.asarray(frames, dtype=np.float64)).astype(np.int64), 0, len(contacts) - 1)
+    return contacts[idx]
 
 
 def append(a: Clip, b: Clip, shared_frame: bool = True) -> Clip:
@@ -96,7 +111,10 @@ def append(a: Clip, b: Clip, shared_frame: bool = True) -> Clip:
     bxz = rotate_xz(b.root_xz, end_h) + end_xz
     bh = b.root_heading + end_h
     s = 1 if shared_frame else 0
-    return a.copy(
+    contacts = None
+    if a.contacts is not None and b.contacts is not None:
+        contacts = np.concatenate([a.contacts, b.contacts[s:]])
+    return a.copy(contacts=contacts,
         root_xz=np.concatenate([a.root_xz, bxz[s:]]),
         root_heading=np.concatenate([a.root_heading, bh[s:]]),
         root_height=np.concatenate([a.root_height, b.root_height[s:]]),
@@ -108,8 +126,8 @@ def mirror(clip: Clip) -> Clip:
     """Mirror left/right across the character's sagittal plane (x -> -x).
 
     Joint rotations are reflected, ``(w, x, y, z) -> (w, x, -y, -z)``, and swapped with their
-    left/right counterpart; the root path mirrors (x -> -x, heading -> -heading). Assumes a
-    left/right symmetric rest skeleton.
+    left/right counterpart; the root path mirrors (x -> -x, heading -> -heading); contact
+    columns swap left for right. Assumes a left/right symmetric rest skeleton.
     """
     m = clip.skeleton.mirror_map()
     rot = clip.rotations[:, m].copy()
@@ -120,12 +138,14 @@ def mirror(clip: Clip) -> Clip:
     o = clip.origin.copy()
     o[2] = -o[2]
     o[0] = -o[0]
-    return clip.copy(root_xz=xz, root_heading=-clip.root_heading, rotations=rot, origin=o)
+    contacts = None if clip.contacts is None else clip.contacts[:, MIRROR_CONTACTS]
+    return clip.copy(root_xz=xz, root_heading=-clip.root_heading, rotations=rot, origin=o, contacts=contacts)
 
 
 def reverse(clip: Clip) -> Clip:
     """Play backwards (the backward seed planner's time reversal). The reversed clip's first
     frame is the original's last, at the same world placement."""
     rev = clip.copy(root_xz=clip.root_xz[::-1], root_heading=clip.root_heading[::-1],
-                    root_height=clip.root_height[::-1], rotations=clip.rotations[::-1])
+                    root_height=clip.root_height[::-1], rotations=clip.rotations[::-1],
+                     contacts=None if clip.contacts is None else clip.contacts[::-1])
     return cut(rev, 0)

@@ -10,7 +10,9 @@ Contract (shared by the authoring side, the tiler and the checker)
   ``entry_class`` / ``exit_class``: pose class (int) of the first / last frame; ``-1`` means the
   port is *closed* (the fragment starts at a source or ends at a sink: it can never be
   stitched and is only allowed where the environment has a source/sink or at the region's
-  boundary). ``entry_open`` / ``exit_open`` default to ``class >= 0``.
+  boundary). ``entry_open`` / ``exit_open`` default to ``class >= 0``. ``contacts`` (F, 4) bool:
+  foot contacts per frame in :data:`runtime.motion.contacts.CONTACT_POINTS` order (None:
+  unknown; the pack stores detected ones, :func:`fragment_contacts`).
 * :class:`Constraint` -- an interpersonal constraint between frame ``frame_a`` of fragment
   ``frag_a`` and frame ``frame_b`` of fragment ``frag_b``: ``rel_position`` (2,) is b's root
   minus a's root expressed in a's heading frame, ``rel_direction`` = heading_b - heading_a
@@ -47,15 +49,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..assets import AssetError, pack_fields, save_pack
+from ..motion.clip import Clip
+from ..motion.contacts import contacts_of
 from ..motion.fk import end_site_positions, forward_kinematics
 from ..motion.planar import rotate_xz, wrap_angle
 from ..motion.skeleton import Skeleton, load_motion_pack
 
 __all__ = ["Fragment", "Constraint", "Port", "Patch", "PatchLibrary", "single_character_patches",
-           "fragment_boxes", "PACK_KIND", "PACK_VERSION"]
+           "fragment_boxes", "fragment_contacts", "PACK_KIND", "PACK_VERSION"]
 
 PACK_KIND = "motion_patches"
-PACK_VERSION = 1
+PACK_VERSION = 2
 
 
 # --------------------------------------------------------------------------------------------
@@ -70,6 +74,7 @@ class Fragment:
     exit_class: int = -1
     entry_open: bool | None = None
     exit_open: bool | None = None
+    contacts: np.ndarray | None = None   # (F, 4) bool, CONTACT_POINTS order
 
     def __post_init__(self):
         self.t0 = float(self.t0)
@@ -93,6 +98,10 @@ class Fragment:
         self.exit_open = bool(self.exit_open)
         if not (np.all(np.isfinite(self.root_xz)) and np.all(np.isfinite(self.heading))):
             raise ValueError("fragment root path has non-finite values")
+        if self.contacts is not None:
+            self.contacts = np.asarray(self.contacts, dtype=bool)
+            if self.contacts.shape != (F, 4):
+                raise ValueError(f"contacts shape {self.contacts.shape} != ({F}, 4)")
 
     @property
     def num_frames(self) -> int:
@@ -145,6 +154,13 @@ class Port:
     time: float                # s, patch time
     pose_class: int
     open: bool
+
+
+def fragment_contacts(skeleton: Skeleton, fps: float, f: Fragment) -> np.ndarray:
+    """``f.contacts``, or when unknown the contacts detected on its motion (``(F, 4)`` bool)."""
+    if f.contacts is not None:
+        return f.contacts
+    return contacts_of(Clip(skeleton, fps, f.root_xz, f.heading, f.root_height, f.rotations))
 
 
 def fragment_boxes(skeleton: Skeleton, root_height, rotations) -> np.ndarray:
@@ -217,7 +233,7 @@ class Patch:
             allxz = np.concatenate([f.root_xz for f in frags])
             c = 0.5 * (allxz.min(axis=0) + allxz.max(axis=0))
             frags = [Fragment(f.t0 - t_shift, f.root_xz - c, f.heading, f.root_height, f.rotations,
-                              f.entry_class, f.exit_class, f.entry_open, f.exit_open) for f in frags]
+                              f.entry_class, f.exit_class, f.entry_open, f.exit_open, f.contacts) for f in frags]
         boxes = [fragment_boxes(skeleton, f.root_height, f.rotations) for f in frags]
         return cls(str(name), tuple(labels), frags, list(constraints), boxes, float(fps), dict(meta or {}))
 
@@ -291,7 +307,7 @@ class PatchLibrary:
         pats = list(self.patches)
         for p in other.patches:
             frags = [Fragment(f.t0, f.root_xz, f.heading, f.root_height, f.rotations, remap[f.entry_class],
-                              remap[f.exit_class], f.entry_open, f.exit_open) for f in p.fragments]
+                              remap[f.exit_class], f.entry_open, f.exit_open, f.contacts) for f in p.fragments]
             pats.append(Patch(p.name, p.labels, frags, p.constraints, p.boxes, p.fps, p.meta))
         rot = hgt = None
         if self.pose_class_rotations is not None and other.pose_class_rotations is not None:
@@ -325,6 +341,8 @@ class PatchLibrary:
             "frame_height": np.concatenate([f.root_height for f in frags]).astype(np.float32) if frags else np.zeros(0, np.float32),
             "frame_rotations": np.concatenate([f.rotations for f in frags]).astype(np.float32) if frags else np.zeros((0, J, 4), np.float32),
             "frame_box": np.concatenate(boxes).astype(np.float32) if boxes else np.zeros((0, 6), np.float32),
+            "frame_contacts": (np.concatenate([fragment_contacts(self.skeleton, self.fps, f) for f in frags])
+                               if frags else np.zeros((0, 4), bool)),
             "con_patch": np.array([pi for pi, _ in cons], np.int64),
             "con_frames": np.array([[c.frag_a, c.frame_a, c.frag_b, c.frame_b] for _, c in cons], np.int64).reshape(-1, 4),
             "con_values": np.array([[*c.rel_position, c.rel_direction, c.dt] for _, c in cons], np.float64).reshape(-1, 4),
@@ -362,7 +380,8 @@ class PatchLibrary:
         if len(ffs) != NF + 1 or ffs[0] != 0 or ffs[-1] != T or np.any(np.diff(ffs) < 2):
             problems.append("frag_frame_start offsets invalid")
         for k, shp in (("frag_class", (NF, 2)), ("frag_open", (NF, 2)), ("frame_xz", (T, 2)),
-                       ("frame_height", (T,)), ("frame_rotations", (T, J, 4)), ("frame_box", (T, 6))):
+                       ("frame_height", (T,)), ("frame_rotations", (T, J, 4)), ("frame_box", (T, 6)),
+                       ("frame_contacts", (T, 4))):
             if a[k].shape != shp:
                 problems.append(f"{k} shape {a[k].shape} != {shp}")
         NC = len(a["con_patch"])
@@ -388,7 +407,8 @@ class PatchLibrary:
                     frags.append(Fragment(a["frag_t0"][fi], a["frame_xz"][s:e], a["frame_heading"][s:e],
                                           a["frame_height"][s:e], a["frame_rotations"][s:e],
                                           a["frag_class"][fi, 0], a["frag_class"][fi, 1],
-                                          bool(a["frag_open"][fi, 0]), bool(a["frag_open"][fi, 1])))
+                                          bool(a["frag_open"][fi, 0]), bool(a["frag_open"][fi, 1]),
+                                          a["frame_contacts"][s:e]))
                     boxes.append(a["frame_box"][s:e])
                 sel = np.flatnonzero(a["con_patch"] == pi)
                 cons = [Constraint(*a["con_frames"][k], a["con_values"][k, :2], a["con_values"][k, 2],
@@ -402,17 +422,19 @@ class PatchLibrary:
     # -- flat pose tables (the MotionGraph layout, so runtime.crowd.tracks.evaluate_poses works) --
     def _flat_frames(self):
         if getattr(self, "_flat", None) is None:
-            offs, rots, hts = {}, [], []
+            offs, rots, hts, cts = {}, [], [], []
             n = 0
             for pi, p in enumerate(self.patches):
                 for k, f in enumerate(p.fragments):
                     offs[(pi, k)] = n
                     rots.append(f.rotations)
                     hts.append(f.root_height)
+                    cts.append(fragment_contacts(self.skeleton, self.fps, f))
                     n += f.num_frames
             J = self.skeleton.num_joints
             self._flat = (np.concatenate(rots) if rots else np.zeros((0, J, 4), np.float32),
-                          np.concatenate(hts).astype(np.float64) if hts else np.zeros(0), offs)
+                          np.concatenate(hts).astype(np.float64) if hts else np.zeros(0), offs,
+                          np.concatenate(cts) if cts else np.zeros((0, 4), bool))
         return self._flat
 
     @property
@@ -424,6 +446,11 @@ class PatchLibrary:
     def frame_height(self) -> np.ndarray:
         """(T,) float64 root heights, flat like :attr:`frame_rotations`."""
         return self._flat_frames()[1]
+
+    @property
+    def frame_contacts(self) -> np.ndarray:
+        """(T, 4) bool foot contacts, flat like :attr:`frame_rotations`."""
+        return self._flat_frames()[3]
 
     def fragment_offset(self, patch: int, fragment: int) -> int:
         """Row of (patch, fragment)'s first frame in the flat tables."""
@@ -478,7 +505,8 @@ def single_character_patches(graph, labels=DEFAULT_SINGLE_LABELS, states=("walki
     for e in keep:
         a, b = graph.edge_start[e], graph.edge_start[e + 1]
         frag = Fragment(0.0, graph.frame_xz[a:b], graph.frame_heading[a:b], graph.frame_height[a:b],
-                        graph.frame_rotations[a:b], int(graph.edge_src[e]), int(graph.edge_dst[e]))
+                        graph.frame_rotations[a:b], int(graph.edge_src[e]), int(graph.edge_dst[e]),
+                        contacts=graph.frame_contacts[a:b])
         patches.append(Patch.from_fragments(f"{name_prefix}_e{e}", tuple(graph.edge_labels[e]) + ("single",),
                                             graph.skeleton, [frag], (), graph.fps, meta={"edge": e}))
     return PatchLibrary(graph.skeleton, patches, [f"node:{i}" for i in range(graph.num_nodes)],
