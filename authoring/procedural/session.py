@@ -43,7 +43,7 @@ __all__ = ["GENERATOR_VERSION", "LABELS", "GeneratedTake", "generate_session", "
 
 GENERATOR_VERSION = "1.1"
 LABELS = ("walk", "start", "stop", "idle", "turn", "sit_down", "sit", "stand_up",
-          "pick_up", "carry", "carry_idle", "put_down")
+          "pick_up", "carry", "put_down")
 VOLUME_RADIUS = 4.0        # metres; walks bend back towards the centre beyond this
 
 
