@@ -2,8 +2,9 @@
 
 Snapping a take to its hub poses (:mod:`.snap`) blends every joint towards the hub pose over a
 few frames; a foot on the ground then slides (up to 20 cm/s over the blend). :func:`pin_feet`
-puts each planted foot back with leg IK (hip-knee-ankle, the knee kept a hinge in its own
-plane; the foot gets its target orientation): over a contact of a foot the foot is where the
+puts each planted foot back with leg IK (hip-knee-ankle, the knee kept in the plane of the
+hip, the old knee and the new ankle, the thigh and shin turned by the least rotations; the foot
+gets its target orientation): over a contact of a foot the foot is where the
 unsnapped take has it, plus the snap's own offset at the hub frames inside that contact,
 interpolated between them (a foot planted across two hub frames, standing, moves from one
 offset to the other over the frames between). Where a pinned foot is out of the leg's reach the hips are lowered
@@ -90,18 +91,6 @@ def _foot_targets(pl, fixed, a_orig, r_orig, a_snap, r_snap, fade):
     return dp, dq
 
 
-def _twist_align(t0, n0, t1, n1):
-    """The rotation taking direction t0 to t1 and then the plane normal n0 to n1 (about t1)."""
-    qa = quat.between(t0, t1)
-    na = quat.rotate(qa, n0)
-    u = t1 / np.maximum(np.linalg.norm(t1, axis=-1, keepdims=True), 1e-12)
-    na = na - np.sum(na * u, axis=-1, keepdims=True) * u
-    nb = n1 - np.sum(n1 * u, axis=-1, keepdims=True) * u
-    ok = (np.linalg.norm(na, axis=-1) > 1e-9) & (np.linalg.norm(nb, axis=-1) > 1e-9)
-    qb = quat.between(np.where(ok[:, None], na, 1.0), np.where(ok[:, None], nb, 1.0))
-    return quat.mul(qb, qa)
-
-
 def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, fade: int = FADE_FRAMES) -> Clip:
     """``snapped`` with each planted foot moved back (see the module docstring) by leg IK.
 
@@ -150,12 +139,16 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
         Dc = np.clip(D, np.abs(l1 - l2) + 1e-4, l1 + l2 - 1e-4)
         u = v / np.maximum(D, 1e-12)[:, None]
         T = H + u * Dc[:, None]
+        # the knee's side: the old knee's, and for a leg near straight the thigh's forward axis
+        fwd = quat.rotate(gr_s[m, hip], np.broadcast_to([0.0, 0.0, 1.0], H.shape))
+        fwd = fwd - np.sum(fwd * u, axis=1, keepdims=True) * u
         pole = K - H
         pole = pole - np.sum(pole * u, axis=1, keepdims=True) * u
+        pole = pole + 0.02 * fwd / np.maximum(np.linalg.norm(fwd, axis=1), 1e-12)[:, None]
         pole = pole / np.maximum(np.linalg.norm(pole, axis=1), 1e-12)[:, None]
         a = (l1 ** 2 - l2 ** 2 + Dc ** 2) / (2 * Dc)
         K2 = H + u * a[:, None] + pole * np.sqrt(np.maximum(l1 ** 2 - a ** 2, 0.0))[:, None]
-        q_hip = _twist_align(K - H, np.cross(K - H, A - K), K2 - H, np.cross(K2 - H, T - K2))
+        q_hip = quat.between(K - H, K2 - H)           # the least turn of the thigh: no twist flips
         q_knee = quat.between(quat.rotate(q_hip, A - K), T - K2)
         g_hip = quat.mul(q_hip, gr_s[m, hip])
         g_knee = quat.mul(q_knee, quat.mul(q_hip, gr_s[m, knee]))
@@ -172,8 +165,8 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
 
 def _smooth_drop(need: np.ndarray, fixed: np.ndarray, half: int = 4) -> np.ndarray:
     """A smooth hip drop covering ``need`` (m per frame, clipped to [0, MAX_DROP]): the largest
-    need within ``half`` frames, smoothed with a triangle of the same width; zero at ``fixed``
-    frames (the covering is then partial next to them)."""
+    need within ``half`` frames, smoothed with a triangle of the same width; brought down to zero
+    over ``half`` frames next to ``fixed`` frames (the covering is then partial there)."""
     n = np.clip(need, 0.0, MAX_DROP)
     if not n.any():
         return np.zeros_like(n)
@@ -183,7 +176,9 @@ def _smooth_drop(need: np.ndarray, fixed: np.ndarray, half: int = 4) -> np.ndarr
     w = np.concatenate([np.arange(1, half + 2), np.arange(half, 0, -1)]).astype(float)
     out = np.convolve(np.concatenate([np.zeros(half), wide, np.zeros(half)]), w / w.sum(), mode="valid")
     out = np.maximum(out, n)
-    out[fixed] = 0.0
+    if len(fixed):                  # zero at the hub frames, reached smoothly
+        near = np.abs(np.arange(F)[:, None] - fixed[None, :]).min(axis=1)
+        out *= np.clip(near / float(half), 0.0, 1.0)
     return out
 
 
