@@ -303,10 +303,11 @@ def test_seeds_do_not_wait_for_a_wall(default_graph):
     assert waits(wall, nobody) == 0
 
 
-def test_still_start_node_stands_still_and_the_hub_does_not(default_graph):
+def test_still_start_node_stands_still_and_the_hub_does_not_walk_on_the_spot(default_graph):
     """"stand" labels both a walking hub (the most connected node) and standing nodes; the
-    still start node idles within eps, the hub's idling walks on the spot."""
-    from runtime.crowd.idle import idle_track, still_nodes
+    still start node idles within eps on its idle clips; the hub has none (its self loops are
+    walk cycles), so idling there holds its pose instead of walking on the spot."""
+    from runtime.crowd.idle import idle_loop, idle_track, still_nodes
     from runtime.crowd.scheduler import start_node
     g = default_graph
     params = SearchParams()
@@ -314,11 +315,35 @@ def test_still_start_node_stands_still_and_the_hub_does_not(default_graph):
     hub = start_node(g, "stand", "x")
     stand = start_node(g, "stand", "x", still)
     assert hub != stand and still[stand] and not still[hub]
+    assert np.any((g.edge_src == hub) & (g.edge_dst == hub)) and idle_loop(g, hub) < 0
     lib = MotionLibrary(g, params)
-    for node, ok in ((stand, True), (hub, False)):
+    for node in (stand, hub):
         tr = idle_track(lib, Config(node, 0.0, 0.0, 0.0, 0), 61)
         rates = adjustment_rates(g, tr, 0, len(tr) - 1, 30.0)   # the checker's per-frame adjustment
-        assert (rates[0] <= params.eps[0]) == ok
+        assert rates[0] <= params.eps[0]
+        moving = np.linalg.norm(np.diff(g.frame_xz[tr.frames_a], axis=0), axis=1) * 30.0
+        same_edge = np.diff(np.searchsorted(g.edge_start, tr.frames_a, "right")) == 0
+        assert not np.any(same_edge & (moving > 0.3))        # no frame of locomotion played in place
+    assert len(np.unique(idle_track(lib, Config(hub, 0.0, 0.0, 0.0, 0), 61).frames_a)) == 1
+
+
+def test_waiting_plays_idle_clips_or_holds_a_pose_on_every_node(default_graph):
+    """Idling on any node plays only frames labelled idle, sit or carry_idle (never a walk, turn,
+    start or stop with the root held; a node without such clips holds its pose), and standing
+    and sitting characters have still nodes with idle clips from the generator."""
+    from runtime.crowd.idle import IDLE_LABELS, idle_loop, idle_track, still_nodes
+    g = default_graph
+    lib = MotionLibrary(g)
+    edge_of = lambda f: np.searchsorted(g.edge_start, f, "right") - 1
+    for n in range(g.num_nodes):
+        tr = idle_track(lib, Config(n, 0.0, 0.0, 0.0, 0), 90)
+        moved = np.diff(tr.frames_a) != 0
+        played = {lab for e in np.unique(edge_of(tr.frames_a[1:][moved])) for lab in g.edge_labels[e]}
+        assert played <= IDLE_LABELS, (n, played)
+    still = still_nodes(g, SearchParams().eps)
+    for label in ("stand", "sit"):
+        assert still[g.nodes_with_label(label)].any(), label
+    assert not still[[n for n in range(g.num_nodes) if idle_loop(g, n) < 0]].any()
 
 
 def test_a_failed_character_is_planned_again_from_the_other_start_node(default_graph, monkeypatch):

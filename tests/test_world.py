@@ -204,10 +204,15 @@ def test_a_plan_finished_after_its_hand_off_is_moved_later(default_graph):
     character idled in place meanwhile, so the same motion starts at a later idle-loop end
     (tested again for collisions) instead of being planned again."""
     from runtime.crowd.checker import adjustment_rates
+    from runtime.world.crowd import LATENCY
     w = World(default_graph, seed=6, budget_ms=0.0)
     got = []
     w.on("arrived", got.append)
     w.spawn("a", (0.0, 0.0), 0.0)
+    w.tick()
+    ends = [f for f, _ in w.playback.boundaries[w.slot("a")] if f > w.frame + LATENCY]
+    while w.frame + LATENCY + 1 < ends[0]:        # the next idle-loop end is the earliest hand-off
+        w.tick()
     w.go_to("a", (-8.0, 12.0), heading=1.0)       # far: many planner steps
     tr = _record(w, "a", 30 * 40, until=lambda: bool(got))
     assert got and w.stats["plans_shifted"] >= 1, w.stats

@@ -15,9 +15,11 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from runtime.motion import Clip, Skeleton, SkeletonMismatchError
+from runtime.motion.contacts import contacts_of
 from runtime.motion.graph import MotionGraph
 
 from .derive import runs
+from .footfix import added_slide, pin_feet, slide_report, take_slide
 from .distance import DEFAULT_JOINT_WEIGHTS, frame_features
 from .hubs import find_candidates, pick_hubs, still_loops
 from .labels import NODE_LABEL, STATES, TRANSITIONS, pose_classes, state_classes, state_of_label
@@ -26,7 +28,7 @@ from .snap import cut_edges, snap_take
 __all__ = ["SourceClip", "GraphBuildParams", "build_graph", "prune", "BUILDER_VERSION"]
 
 # Bump when the builder's output for the same takes changes (invalidates cached libraries).
-BUILDER_VERSION = 2
+BUILDER_VERSION = 3
 
 
 @dataclass
@@ -55,6 +57,10 @@ class GraphBuildParams:
                                      # walk): for labels derived from real capture, see labels.pose_classes
     still_eps: tuple | None = None   # (m/s, deg/s): make idle self-loops that drift within this
                                      # in runs of "idle" frames (hubs.still_loops); None: off
+    pin_feet: bool = True            # leg IK keeps planted feet where the take has them through
+                                     # the snap blend (footfix.pin_feet)
+    max_foot_slide: float = 25.0     # cm/s: an edge whose planted feet slide faster than its take's
+                                     # own by more than this on any frame is dropped (footfix.added_slide)
     joint_weights: dict = field(default_factory=lambda: dict(DEFAULT_JOINT_WEIGHTS))
 
 
@@ -124,6 +130,7 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     occ_hub = np.concatenate([np.full(len(h.occurrences), k) for k, h in enumerate(hubs)])
     edges = []   # (src, dst, take, start, end, clip)
     spans = {}   # take -> [first, last] hub occurrence (frames outside them are on no edge)
+    slid, slide = [], []    # edges dropped for foot slide; per kept edge its planted-point speeds
     for ti, t in enumerate(takes):
         m = take_of[occ_frame] == ti
         if m.sum() < 2:
@@ -131,9 +138,21 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         local = occ_frame[m] - offsets[ti]
         spans[t.name] = [int(local.min()), int(local.max())]
         hk = occ_hub[m]
+        contacts = contacts_of(t.clip)
         snapped = snap_take(t.clip, local, hub_rot[hk], hub_height[hk], params.snap_window)
+        if params.pin_feet:
+            snapped = pin_feet(t.clip, snapped, contacts, local)
+        own = take_slide(t.clip, contacts)
         for a, b, s, e, c in cut_edges(snapped, local, hk):
+            v, added = added_slide(c, own[s:e])
+            if 100.0 * added > params.max_foot_slide:
+                slid.append({"take": t.name, "start": s, "end": e, "added_cm_s": round(100.0 * added, 1)})
+                continue
             edges.append((a, b, ti, s, e, c))
+            slide.append(v)
+    if slid:
+        log(f"  {len(slid)} edge(s) dropped: planted feet slide over {params.max_foot_slide:g} cm/s faster than "
+            "in their take")
     if not edges:
         raise ValueError("no edges: no take passes through two hub occurrences")
 
@@ -166,6 +185,7 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     new_id[keep_nodes] = np.arange(keep_nodes.sum())
     kept = [k for k in range(len(edges)) if keep_edges[k]]
     clips = [edges[k][5] for k in kept]
+    foot_slide = slide_report([slide[k] for k in kept], slid, params.max_foot_slide)
     meta_edges = [{"take": takes[edges[k][2]].name, "start": edges[k][3], "end": edges[k][4]} for k in kept]
     nodes_kept = np.flatnonzero(keep_nodes)
     return MotionGraph.from_clips(
@@ -180,7 +200,7 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
                               "occurrences": int(len(h.occurrences))} for h in np.array(hubs, dtype=object)[nodes_kept]],
               "params": {k: v for k, v in params.__dict__.items() if k != "joint_weights"},
               "candidates": int(len(cand.cols)), "pairs_evaluated": int(cand.pairs_evaluated),
-              "occurrence_span": spans})
+              "occurrence_span": spans, "foot_slide": foot_slide})
 
 
 def _scc_largest(n, src, dst, mask_nodes, mask_edges):

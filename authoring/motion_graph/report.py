@@ -4,8 +4,9 @@
 (its own frames, and its mirrored copy's), or dropped with the reason -- the derived labels'
 reasons (:data:`.derive.DROPPED`: not walking-like, uneven ground), no transition (frames
 before the first or after the last hub pose of their take: they share no pose with the rest
-of the data within the threshold), or pruned (edges between hubs that are dead ends or not
-strongly connected with the rest, Sung, Kovar and Gleicher 2005, section 4).
+of the data within the threshold), pruned (edges between hubs that are dead ends or not
+strongly connected with the rest, Sung, Kovar and Gleicher 2005, section 4), or dropped for
+foot slide (edges whose planted feet slide faster than in the capture after snapping).
 
 :func:`capabilities` says what goals the library can serve: which node labels it has, whether
 a character can stand still on a node (an idle self-loop within the adjustment tolerance),
@@ -22,10 +23,11 @@ from runtime.motion.graph import MotionGraph
 
 from .derive import DROPPED
 
-__all__ = ["source_report", "capabilities", "format_report", "NO_TRANSITION", "PRUNED"]
+__all__ = ["source_report", "capabilities", "format_report", "NO_TRANSITION", "PRUNED", "SLID"]
 
 NO_TRANSITION = "no transition: shares no pose with the rest of the data within the threshold"
 PRUNED = "pruned: dead ends, or not strongly connected with the rest"
+SLID = "foot slide: planted feet slide after snapping"
 STAND_LABELS = ("idle", "turn", "stand", "stop", "start")
 WALK_LABELS = ("walk", "run")
 DEFAULT_EPS = (0.02, 2.0, 1.0 / 15.0)
@@ -49,6 +51,9 @@ def source_report(graph: MotionGraph, files) -> list[dict]:
     kept_edges: dict[str, list] = {}
     for eo in graph.meta.get("edge_origin", []):
         kept_edges.setdefault(eo["take"], []).append((int(eo["start"]), int(eo["end"])))
+    slid_edges: dict[str, list] = {}
+    for eo in (graph.meta.get("foot_slide") or {}).get("dropped", []):
+        slid_edges.setdefault(eo["take"], []).append((int(eo["start"]), int(eo["end"])))
     out = []
     for f in files:
         n = max(0, f.frames - 1)
@@ -65,8 +70,11 @@ def source_report(graph: MotionGraph, files) -> list[dict]:
                 covered = np.zeros(n, dtype=bool)
                 for s, e in kept_edges.get(name, []):
                     covered[off + s:off + e] = True
+                slid = np.zeros(n, dtype=bool)
+                for s, e in slid_edges.get(name, []):
+                    slid[off + s:off + e] = True
                 for i in range(off + span[0], off + span[1]):
-                    cat[i] = "kept" if covered[i] else PRUNED
+                    cat[i] = "kept" if covered[i] else SLID if slid[i] else PRUNED
             tallies.append(cat)
         own, mir = tallies
         dropped: dict[str, float] = {}

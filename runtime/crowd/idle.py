@@ -1,9 +1,12 @@
 """Idling: what a character does while it waits on a motion-graph node.
 
-A node's idle clip is its self-loop clip with the least drift; idling repeats it, each repeat
-bent back onto the start so the character stays on its spot. A node where that clip drifts
-within the adjustment tolerance is *still*: a character can wait there (a walking hub's self
-loops are walk cycles and are not still).
+A node's idle clip is its self-loop clip with the least drift among its *idle* loops, those
+whose every frame label is one of :data:`IDLE_LABELS` (standing, sitting, standing with a box);
+idling repeats it, each repeat bent back onto the start so the character stays on its spot.
+A self loop that walks, turns, starts, stops, sits down or picks up is never played to wait:
+with the root held, its legs would step on the spot. A node without an idle loop holds its hub
+pose. A node whose idle clip drifts within the adjustment tolerance is *still*: a character can
+wait there (a walking hub's self loops are walk cycles: it has no idle loop and is not still).
 """
 from __future__ import annotations
 
@@ -14,12 +17,23 @@ from .planner.library import MotionLibrary
 from .planner.types import Config
 from .tracks import Track
 
-__all__ = ["idle_loop", "track_radius", "idle_track", "still_nodes", "hold_tail", "idle_for"]
+__all__ = ["IDLE_LABELS", "idle_loops", "idle_loop", "track_radius", "idle_track", "still_nodes", "hold_tail",
+           "idle_for"]
+
+IDLE_LABELS = frozenset({"idle", "stand", "sit", "carry_idle"})   # frame labels of motion that stays put
+
+
+def idle_loops(g, node: int) -> np.ndarray:
+    """The node's self loops whose every frame is labelled as idling (:data:`IDLE_LABELS`)."""
+    loops = np.flatnonzero((g.edge_src == node) & (g.edge_dst == node))
+    return np.array([e for e in loops if g.edge_labels[e] and IDLE_LABELS.issuperset(g.edge_labels[e])],
+                    dtype=np.int64)
 
 
 def idle_loop(g, node: int) -> int:
-    """The node's self-loop clip with the least drift (the one idling repeats), or -1."""
-    loops = np.flatnonzero((g.edge_src == node) & (g.edge_dst == node))
+    """The node's idle loop (:func:`idle_loops`) with the least drift (the one idling repeats),
+    or -1 when it has none."""
+    loops = idle_loops(g, node)
     if len(loops) == 0:
         return -1
     drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
@@ -103,7 +117,7 @@ def idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:
     loop clip, so that the last frame is back on ``cfg``'s node and position (turned by the
     clip's own turns, see ``turn``); its clock starts at ``cfg.frame``."""
     e = idle_loop(graph, cfg.node)             # the clip idle_track repeats
-    step = int(graph.edge_start[e + 1] - graph.edge_start[e]) - 1
+    step = int(graph.edge_start[e + 1] - graph.edge_start[e]) - 1 if e >= 0 else 1   # a held pose: any length
     n = 1 + max(1, int(round(seconds * fps / step))) * step
     tr = idle_track(lib, cfg, n, turn=True)
     tr.start_frame = cfg.frame

@@ -15,7 +15,7 @@ import numpy as np
 from ..motion import quat
 from ..motion.fk import forward_kinematics
 
-__all__ = ["Track", "evaluate_poses", "joint_positions", "concat_tracks"]
+__all__ = ["Track", "evaluate_poses", "joint_positions", "concat_tracks", "track_contacts"]
 
 
 @dataclass
@@ -70,6 +70,14 @@ def evaluate_poses(graph, frames_a, frames_b, frames_t, root):
     rot[..., 0, :] = quat.mul(quat.from_yaw(root[..., 2]), rot[..., 0, :])
     pos = np.stack([root[..., 0], h, root[..., 1]], axis=-1)
     return pos, rot
+
+
+def track_contacts(graph, frames_a, frames_b, frames_t) -> np.ndarray:
+    """Foot contacts ``(..., 4)`` bool of blended library frames (any leading shape): those of
+    the nearer of the two frames (``frames_a`` while ``frames_t < 0.5``), from the library's
+    ``frame_contacts``."""
+    near = np.where(np.asarray(frames_t) < 0.5, frames_a, frames_b)
+    return graph.frame_contacts[near]
 
 
 def joint_positions(graph, track: Track) -> np.ndarray:

@@ -245,4 +245,17 @@ class MotionGraph:
             "heading_change_per_pair": heading_ranges[:10],
             "pruned_edges": self.meta.get("pruned_edges"), "pruned_nodes": self.meta.get("pruned_nodes"),
             "contacts": contact_summary(self.frame_contacts, "pack"),
+            "foot_slide": self._foot_slide_summary(),
         }
+
+    def _foot_slide_summary(self):
+        """The build's foot-slide figures (``meta["foot_slide"]``): over all edges, the edges with
+        the most, and the edges dropped for it; None for a library built without them."""
+        fs = self.meta.get("foot_slide")
+        if not isinstance(fs, dict):
+            return None
+        per_edge = np.asarray(fs.get("edge_max_cm_s", []), dtype=float)
+        worst = np.argsort(-per_edge, kind="stable")[:5]
+        return {k: fs.get(k) for k in ("mean_cm_s", "p95_cm_s", "sliding", "limit_cm_s")} | {
+            "dropped_edges": len(fs.get("dropped", [])),
+            "worst_edges": [(int(e), float(per_edge[e])) for e in worst]}
