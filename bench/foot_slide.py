@@ -8,7 +8,8 @@ within 5 cm of that foot's lowest point and its vertical speed is under 15 cm/s;
 horizontal speeds of planted feet). The raw procedural capture (a take converted from its BVH, as
 ``crowdweave convert`` does) is measured the same way for comparison. Crowd characters and tiled
 characters of a sample are reported apart and together; the table also gives the lowest foot
-point and the knee flexion range. No asserts.
+point and the signed knee flexion range; "within" holds them to runtime.footslide's limits (and
+the capture's knee range, kept in the library, when it has one). No asserts.
 
     CROWDWEAVE_CACHE=... python bench/foot_slide.py [--samples meet20 plaza tiling_static_30] [--take 0]
         [--keep DIR]   (keep the stages written)
@@ -81,7 +82,7 @@ def row(label, f):
 
 
 def main(argv=None):
-    from runtime.footslide import LIMITS, measure_stage, slide_passed
+    from runtime.footslide import LIMITS, knee_range_of, measure_stage, slide_passed
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--samples", nargs="*", default=list(DEFAULT))
     ap.add_argument("--take", type=int, default=0, help="the capture take measured for comparison")
@@ -113,9 +114,11 @@ def main(argv=None):
             path = out / f"{name}{'_locked' if lock else '_raw'}.usdc"
             roots = _bake(groups, fps, frames, path, lock)
             parts = list(roots.items()) + ([("all", sum(roots.values(), []))] if len(roots) > 1 else [])
+            knees = {label: knee_range_of(lib) for label, _, lib in groups}
             for label, r in parts:
                 f = measure_stage(path, r)
-                f["within"] = slide_passed(f)
+                kr = [k for k in (knees.get(label) if label != "all" else None, *knees.values()) if k is not None]
+                f["within"] = slide_passed(f, kr[0] if kr else None)
                 print(row(f"{name} {label} {'locked' if lock else 'unlocked'}", f), flush=True)
         print(f"  ({name}: {time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
 

@@ -8,8 +8,14 @@ speeds of planted feet, pooled over every foot of every character: the mean, the
 percentile, and the share of planted frames sliding faster than :data:`SLIDE_SPEED`. The speed
 of a frame is its displacement from the previous frame times the frame rate (the first frame of
 a character has none and is not counted). Alongside: the lowest foot point (toe and ankle joints) and
-the knee flexion range (angle between thigh and shin; below zero would be hyperextension, which
-the angle cannot show, so the straightest and the most bent are reported).
+the knee flexion range: the angle between thigh and shin, signed by the side the knee is on --
+in front of the hip-ankle line (towards where the foot points) is flexion, behind it is
+hyperextension and counts negative.
+
+:func:`slide_passed` holds the figures to :data:`LIMITS`: the slide, no foot more than 1 cm
+below the ground, no hyperextension, and, when the capture's knee range is known (a library
+build keeps it in ``meta["knee_flexion_deg"]``), no knee outside it by more than
+:data:`KNEE_TOLERANCE`.
 
 Joint positions are read through ``pxr.UsdSkel`` (skeleton-space joint transforms of every
 time sample, placed by the Skeleton prim's world transform); the toe joint of each side is found
@@ -22,16 +28,29 @@ import re
 
 import numpy as np
 
-__all__ = ["PLANT_HEIGHT", "PLANT_VSPEED", "SLIDE_SPEED", "LIMITS", "ENFORCED", "planted_slide", "slide_summary",
-           "stage_feet", "measure_stage", "feet_report", "slide_passed", "slide_line"]
+__all__ = ["PLANT_HEIGHT", "PLANT_VSPEED", "SLIDE_SPEED", "LIMITS", "KNEE_TOLERANCE", "ENFORCED", "knee_range_of",
+           "planted_slide", "slide_summary", "stage_feet", "signed_knee_flexion", "measure_stage", "feet_report",
+           "slide_passed", "slide_line"]
 
 PLANT_HEIGHT = 0.05      # m above the foot's lowest point
 PLANT_VSPEED = 0.15      # m/s vertical
 SLIDE_SPEED = 0.10       # m/s: a planted frame faster than this is sliding
-LIMITS = {"mean_cm_s": 3.0, "p95_cm_s": 10.0, "sliding_share": 0.03}
-# Whether a bake over the limits fails. Off while characters waiting between goals play their
-# walking loop in place (their feet cannot be planted); the figures are printed either way.
-ENFORCED = False
+LIMITS = {"mean_cm_s": 3.0, "p95_cm_s": 10.0, "sliding_share": 0.03,
+          "lowest_foot_m": -0.01,      # no foot point lower than this
+          "knee_min_deg": 0.0}         # signed knee flexion: below zero is hyperextension
+KNEE_TOLERANCE = 1.0     # degrees a knee may leave the capture's range by (measurement, blending)
+# Whether a bake over the limits fails (``crowdweave bake`` exits non-zero and keeps the old stage).
+ENFORCED = True
+
+
+def knee_range_of(library) -> list | None:
+    """The capture's knee flexion range a library build kept (``meta["knee_flexion_deg"]``, per
+    leg), as [least, most] degrees over both legs; None when the library has none."""
+    meta = getattr(library, "meta", None) or {}
+    r = meta.get("knee_flexion_deg")
+    if r is None:
+        return None
+    return [float(np.min(r[0])), float(np.max(r[1]))]
 
 
 def planted_slide(toe: np.ndarray, fps: float):
@@ -117,11 +136,32 @@ def stage_feet(path, roots=None) -> dict:
             rows[k] = np.asarray(q.ComputeJointSkelTransforms(Usd.TimeCode(t)))[chains, 3]
         rows[..., 3] = 1.0
         pos = (rows @ world)[..., :3]
-        thigh = pos[:, :, 2] - pos[:, :, 3]
-        shin = pos[:, :, 1] - pos[:, :, 2]
-        c = np.sum(thigh * shin, -1) / np.maximum(np.linalg.norm(thigh, axis=-1) * np.linalg.norm(shin, axis=-1), 1e-12)
-        out[str(prim.GetPath())] = (float(times[0]), pos[:, :, 0], pos[:, :, 1], np.arccos(np.clip(c, -1, 1)))
+        out[str(prim.GetPath())] = (float(times[0]), pos[:, :, 0], pos[:, :, 1], signed_knee_flexion(pos))
     return out
+
+
+def signed_knee_flexion(pos: np.ndarray) -> np.ndarray:
+    """Knee flexion (radians, ``(F, 2)``) of one character's legs ``pos`` (F, 2, 4, 3) = per side
+    (toe, ankle, knee, hip): the angle between thigh and shin, negative when the knee lies behind
+    the hip-ankle line. Behind is against the pelvis's facing (horizontal, square to the line
+    between the hips; of its two senses, the one the feet point along on most frames): the knee
+    is behind when it lies more than 5 mm behind the line along that facing (a knee turned out
+    sideways is not)."""
+    toe, ankle, knee, hip = pos[..., 0, :], pos[..., 1, :], pos[..., 2, :], pos[..., 3, :]
+    thigh, shin = knee - hip, ankle - knee
+    c = np.sum(thigh * shin, -1) / np.maximum(np.linalg.norm(thigh, axis=-1) * np.linalg.norm(shin, axis=-1), 1e-12)
+    flex = np.arccos(np.clip(c, -1.0, 1.0))
+    line = ankle - hip
+    u = line / np.maximum(np.linalg.norm(line, axis=-1, keepdims=True), 1e-12)
+    off = thigh - np.sum(thigh * u, -1, keepdims=True) * u          # the knee's offset from the line
+    across = hip[:, 1] - hip[:, 0]
+    face = np.stack([across[:, 2], np.zeros(len(across)), -across[:, 0]], axis=-1)   # up x across
+    feet = toe - ankle
+    if np.sum(np.sum(feet * face[:, None], -1)) < 0.0:
+        face = -face
+    face = face / np.maximum(np.linalg.norm(face, axis=-1, keepdims=True), 1e-12)
+    behind = np.sum(off * face[:, None], -1) < -0.005
+    return np.where(behind, -flex, flex)
 
 
 def measure_stage(path, roots=None, fps: float | None = None) -> dict:
@@ -148,18 +188,29 @@ def measure_stage(path, roots=None, fps: float | None = None) -> dict:
     return out
 
 
-def feet_report(path, roots=None) -> dict:
-    """:func:`measure_stage` plus ``within_limits`` (:func:`slide_passed`), the ``limits`` and
-    whether they decide a bake (``enforced``: :data:`ENFORCED`)."""
+def feet_report(path, roots=None, knee_range=None) -> dict:
+    """:func:`measure_stage` plus ``within_limits`` (:func:`slide_passed`, against the capture's
+    ``knee_range`` (degrees, [least, most]) when given), the ``limits`` and whether they decide
+    a bake (``enforced``: :data:`ENFORCED`)."""
     f = measure_stage(path, roots)
-    f.update({"within_limits": slide_passed(f), "limits": dict(LIMITS), "enforced": ENFORCED})
+    f.update({"within_limits": slide_passed(f, knee_range), "limits": dict(LIMITS), "enforced": ENFORCED,
+              "capture_knee_deg": None if knee_range is None else [float(k) for k in knee_range]})
     return f
 
 
-def slide_passed(figures: dict) -> bool:
-    """Whether the figures are within :data:`LIMITS`."""
-    return (figures["mean_cm_s"] <= LIMITS["mean_cm_s"] and figures["p95_cm_s"] <= LIMITS["p95_cm_s"]
-            and figures["sliding_share"] <= LIMITS["sliding_share"])
+def slide_passed(figures: dict, knee_range=None) -> bool:
+    """Whether the figures are within :data:`LIMITS` (figures a test leaves out are not
+    judged), and the knee range within the capture's ``knee_range`` [least, most] degrees
+    (give or take :data:`KNEE_TOLERANCE`) when given."""
+    ok = (figures["mean_cm_s"] <= LIMITS["mean_cm_s"] and figures["p95_cm_s"] <= LIMITS["p95_cm_s"]
+          and figures["sliding_share"] <= LIMITS["sliding_share"]
+          and figures.get("lowest_foot_m", 0.0) >= LIMITS["lowest_foot_m"])
+    knee = figures.get("knee_flexion_deg")
+    if knee is not None:
+        ok = ok and knee[0] >= LIMITS["knee_min_deg"]
+        if knee_range is not None:
+            ok = ok and knee[0] >= knee_range[0] - KNEE_TOLERANCE and knee[1] <= knee_range[1] + KNEE_TOLERANCE
+    return bool(ok)
 
 
 def slide_line(figures: dict) -> str:
@@ -169,4 +220,6 @@ def slide_line(figures: dict) -> str:
             f"({figures['planted_frames']} planted frames; limits {LIMITS['mean_cm_s']:.0f} / "
             f"{LIMITS['p95_cm_s']:.0f} cm/s, {LIMITS['sliding_share'] * 100:.0f}%); lowest foot "
             f"{figures['lowest_foot_m'] * 100:.1f} cm, knee flexion {figures['knee_flexion_deg'][0]:.1f}-"
-            f"{figures['knee_flexion_deg'][1]:.1f} deg")
+            f"{figures['knee_flexion_deg'][1]:.1f} deg"
+            + (f" (capture {figures['capture_knee_deg'][0]:.1f}-{figures['capture_knee_deg'][1]:.1f})"
+               if figures.get("capture_knee_deg") else ""))

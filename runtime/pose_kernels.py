@@ -268,13 +268,23 @@ if AVAILABLE:
             qx -= pr * ux
             qy -= pr * uy
             qz -= pr * uz
+            fwx = np.sin(h)
+            fwz = np.cos(h)
+            pr = fwx * ux + fwz * uz
+            fx_ = fwx - pr * ux                                    # forward, square to the leg
+            fy_ = -pr * uy
+            fz_ = fwz - pr * uz
             if np.sqrt(qx * qx + qy * qy + qz * qz) <= 1e-6:      # a straight leg: the knee faces forward
-                fwx = np.sin(h)
-                fwz = np.cos(h)
-                pr = fwx * ux + fwz * uz
-                qx = fwx - pr * ux
-                qy = -pr * uy
-                qz = fwz - pr * uz
+                qx = fx_
+                qy = fy_
+                qz = fz_
+            else:                                                  # never behind the line: mirrored to the front
+                rf = 1.0 / max(np.sqrt(fx_ * fx_ + fy_ * fy_ + fz_ * fz_), 1e-12)
+                pf = (qx * fx_ + qy * fy_ + qz * fz_) * rf
+                if pf < 0.0:
+                    qx -= 2.0 * pf * fx_ * rf
+                    qy -= 2.0 * pf * fy_ * rf
+                    qz -= 2.0 * pf * fz_ * rf
             rq = 1.0 / max(np.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
             a = (thigh[s] * thigh[s] - shin[s] * shin[s] + Dc * Dc) / (2.0 * Dc)
             b = np.sqrt(max(thigh[s] * thigh[s] - a * a, 0.0))

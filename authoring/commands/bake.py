@@ -259,7 +259,8 @@ def run(args) -> int:
         pause_point("checking")
         # the checker reads the baked stage back (the temporary file), not the planner's objects
         report = check_crowd(sc, read_tracks(tmp) if sc.characters else {}, graph, env, result.fps).to_dict()
-        feet = bake_feet(tmp, tracks, zones)
+        from runtime.footslide import knee_range_of
+        feet = bake_feet(tmp, tracks, zones, knee_range_of(graph))
         report["feet"] = feet
         if tiling_report:
             report["tiling"] = tiling_report

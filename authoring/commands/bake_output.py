@@ -31,18 +31,19 @@ def keep_result(tmp, out, report_path, report, passed: bool, keep_failed: bool) 
     return f"{out} not replaced (the checker failed; --keep-failed keeps the new stage beside it)"
 
 
-def bake_feet(stage_path, tracks, zones) -> dict:
+def bake_feet(stage_path, tracks, zones, knee_range=None) -> dict:
     """Planted-foot slide of the written stage, measured by the crowd checker (crowd characters)
-    and the tiling checker (each zone's characters); empty groups are left out."""
+    and the tiling checker (each zone's characters); empty groups are left out. ``knee_range``:
+    the capture's knee flexion range (:func:`runtime.footslide.knee_range_of`)."""
     from runtime.crowd.checker import check_crowd_feet
     from runtime.tiling.check import check_tiling_feet
     from usd_io.crowd import character_path
     out = {}
     if tracks:
-        out["crowd"] = check_crowd_feet(stage_path, [character_path(n) for n in tracks])
+        out["crowd"] = check_crowd_feet(stage_path, [character_path(n) for n in tracks], knee_range)
     tiled = [character_path(n) for z in zones for n in z.tracks()]
     if tiled:
-        out["tiled"] = check_tiling_feet(stage_path, tiled)
+        out["tiled"] = check_tiling_feet(stage_path, tiled, knee_range)
     return out
 
 

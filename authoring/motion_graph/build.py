@@ -16,10 +16,10 @@ from scipy.sparse.csgraph import connected_components
 
 from runtime.motion import Clip, Skeleton, SkeletonMismatchError
 from runtime.motion.contacts import contacts_of
-from runtime.motion.graph import MotionGraph
+from runtime.motion.graph import MotionGraph, edge_tables
 
 from .derive import runs
-from .footfix import added_slide, pin_feet, slide_report, take_slide
+from .footfix import added_slide, knee_range, pin_feet, slide_report, take_slide
 from .distance import DEFAULT_JOINT_WEIGHTS, frame_features
 from .hubs import find_candidates, pick_hubs, still_loops
 from .labels import NODE_LABEL, STATES, TRANSITIONS, pose_classes, state_classes, state_of_label
@@ -28,7 +28,7 @@ from .snap import cut_edges, snap_take
 __all__ = ["SourceClip", "GraphBuildParams", "build_graph", "prune", "BUILDER_VERSION"]
 
 # Bump when the builder's output for the same takes changes (invalidates cached libraries).
-BUILDER_VERSION = 3
+BUILDER_VERSION = 4
 
 
 @dataclass
@@ -131,6 +131,7 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
     edges = []   # (src, dst, take, start, end, clip)
     spans = {}   # take -> [first, last] hub occurrence (frames outside them are on no edge)
     slid, slide = [], []    # edges dropped for foot slide; per kept edge its planted-point speeds
+    flex = knee_range([t.clip for t in takes]) if params.pin_feet else None   # the capture's knees
     for ti, t in enumerate(takes):
         m = take_of[occ_frame] == ti
         if m.sum() < 2:
@@ -140,15 +141,16 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         hk = occ_hub[m]
         contacts = contacts_of(t.clip)
         snapped = snap_take(t.clip, local, hub_rot[hk], hub_height[hk], params.snap_window)
+        body_radius = edge_tables(snapped)[0]     # the collision cylinder: the snapped body's
         if params.pin_feet:
-            snapped = pin_feet(t.clip, snapped, contacts, local)
+            snapped = pin_feet(t.clip, snapped, contacts, local, flex_range=flex)
         own = take_slide(t.clip, contacts)
         for a, b, s, e, c in cut_edges(snapped, local, hk):
             v, added = added_slide(c, own[s:e])
             if 100.0 * added > params.max_foot_slide:
                 slid.append({"take": t.name, "start": s, "end": e, "added_cm_s": round(100.0 * added, 1)})
                 continue
-            edges.append((a, b, ti, s, e, c))
+            edges.append((a, b, ti, s, e, c, body_radius[s:e + 1]))
             slide.append(v)
     if slid:
         log(f"  {len(slid)} edge(s) dropped: planted feet slide over {params.max_foot_slide:g} cm/s faster than "
@@ -163,7 +165,7 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         labs = sorted({NODE_LABEL.get(labels[o], labels[o]) for o in h.occurrences if labels[o] not in TRANSITIONS})
         node_labels.append(labs)
     edge_labels, edge_state = [], []
-    for a, b, ti, s, e, c in edges:
+    for a, b, ti, s, e, c, _ in edges:
         labs = takes[ti].labels[s:e + 1]
         uniq = sorted(set(labs))
         edge_labels.append(uniq)
@@ -193,14 +195,15 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         node_rotations=hub_rot[nodes_kept].astype(np.float32), node_height=hub_height[nodes_kept],
         node_state=node_state[nodes_kept], node_labels=[node_labels[n] for n in nodes_kept],
         edge_src=new_id[src[kept]], edge_dst=new_id[dst[kept]], edge_state=edge_state[kept],
-        edge_labels=[edge_labels[k] for k in kept], clips=clips,
+        edge_labels=[edge_labels[k] for k in kept], clips=clips, radius=[edges[k][6] for k in kept],
         meta={"sources": [t.path or t.name for t in takes], "edge_origin": meta_edges,
               "pruned_edges": n_pruned_edges, "pruned_nodes": int(len(hubs) - keep_nodes.sum()),
               "hub_frames": [{"take": takes[take_of[h.frame]].name, "frame": int(h.frame - offsets[take_of[h.frame]]),
                               "occurrences": int(len(h.occurrences))} for h in np.array(hubs, dtype=object)[nodes_kept]],
               "params": {k: v for k, v in params.__dict__.items() if k != "joint_weights"},
               "candidates": int(len(cand.cols)), "pairs_evaluated": int(cand.pairs_evaluated),
-              "occurrence_span": spans, "foot_slide": foot_slide})
+              "occurrence_span": spans, "foot_slide": foot_slide,
+              **({"knee_flexion_deg": np.degrees(flex).round(3).tolist()} if flex is not None else {})})
 
 
 def _scc_largest(n, src, dst, mask_nodes, mask_edges):

@@ -22,9 +22,10 @@ from __future__ import annotations
 import numpy as np
 
 from runtime.motion import Clip, quat
-from runtime.motion.contacts import contact_point_positions, leg_joints, planted, planted_speeds
+from runtime.motion.contacts import contact_point_positions, knee_flexion, leg_joints, planted, planted_speeds
 
-__all__ = ["pin_feet", "edge_slide", "take_slide", "added_slide", "slide_report", "FADE_FRAMES", "MAX_DROP"]
+__all__ = ["pin_feet", "knee_range", "edge_slide", "take_slide", "added_slide", "slide_report", "FADE_FRAMES",
+           "MAX_DROP"]
 
 FADE_FRAMES = 6          # frames of swing over which a foot's correction fades out (or in)
 MAX_DROP = 0.05          # m: the most the hips are lowered where a pinned foot is out of reach
@@ -91,13 +92,32 @@ def _foot_targets(pl, fixed, a_orig, r_orig, a_snap, r_snap, fade):
     return dp, dq
 
 
-def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, fade: int = FADE_FRAMES) -> Clip:
+def knee_range(clips) -> np.ndarray | None:
+    """The knee flexion range of some takes, ``(2, 2)`` radians: row 0 the least flexion of the
+    left and right knee, row 1 the most; None when the skeleton's legs are not known."""
+    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
+    for c in clips:
+        try:
+            legs = leg_joints(c.skeleton)
+        except ValueError:
+            return None
+        flex = knee_flexion(legs, c.fk()[1])
+        if len(flex):
+            lo, hi = np.minimum(lo, flex.min(axis=0)), np.maximum(hi, flex.max(axis=0))
+    return np.stack([lo, hi]) if np.all(np.isfinite(lo)) else None
+
+
+def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, fade: int = FADE_FRAMES,
+             flex_range: np.ndarray | None = None) -> Clip:
     """``snapped`` with each planted foot moved back (see the module docstring) by leg IK.
 
     Args:
         original: the take before snapping; snapped: the same take snapped (same root path).
         contacts: (F, 4) contact flags of the take (CONTACT_POINTS order).
         fixed_frames: frames left exactly as snapped (the hub occurrences).
+        flex_range: (2, 2) the capture's knee flexion range (:func:`knee_range`); a solved knee
+            stays inside it (a pin out of that reach is followed only as far as it allows);
+            default: the original take's own range.
     Returns ``snapped`` unchanged when the skeleton's legs are not known.
     """
     try:
@@ -111,13 +131,14 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
     rot = snapped.rotations.astype(np.float64)
     F = snapped.num_frames
     feet = planted(contacts)
+    flex = knee_range([original]) if flex_range is None else np.asarray(flex_range, dtype=np.float64)
     corr = [_foot_targets(feet[:, s], fixed, gp_o[:, legs.ankle[s]], gr_o[:, legs.ankle[s]], gp_s[:, legs.ankle[s]],
                           gr_s[:, legs.ankle[s]], fade) for s in range(2)]
     # hips lowered where a target is out of reach (legs at their rest lengths)
     need = np.zeros(F)
     for s, (dp, _) in enumerate(corr):
         hip, knee, ankle = int(legs.hip[s]), int(legs.knee[s]), int(legs.ankle[s])
-        reach = np.linalg.norm(sk.offsets[knee]) + np.linalg.norm(sk.offsets[ankle]) - 2e-3
+        reach = _reach(sk, knee, ankle, flex[:, s])[1]
         v = gp_s[:, ankle] + dp - gp_s[:, hip]
         h2 = v[:, 0] ** 2 + v[:, 2] ** 2
         need = np.maximum(need, -v[:, 1] - np.sqrt(np.maximum(reach ** 2 - h2, 0.0)))
@@ -136,7 +157,8 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
         l2 = np.linalg.norm(A - K, axis=1)
         v = T - H
         D = np.linalg.norm(v, axis=1)
-        Dc = np.clip(D, np.abs(l1 - l2) + 1e-4, l1 + l2 - 1e-4)
+        d_min, d_max = _reach(sk, knee, ankle, flex[:, s])
+        Dc = np.clip(D, d_min, d_max)
         u = v / np.maximum(D, 1e-12)[:, None]
         T = H + u * Dc[:, None]
         # the knee's side: the old knee's, and for a leg near straight the thigh's forward axis
@@ -144,7 +166,9 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
         fwd = fwd - np.sum(fwd * u, axis=1, keepdims=True) * u
         pole = K - H
         pole = pole - np.sum(pole * u, axis=1, keepdims=True) * u
-        pole = pole + 0.02 * fwd / np.maximum(np.linalg.norm(fwd, axis=1), 1e-12)[:, None]
+        fn = fwd / np.maximum(np.linalg.norm(fwd, axis=1), 1e-12)[:, None]
+        pole = pole + 0.02 * fn
+        pole = pole - 2.0 * np.minimum(np.sum(pole * fn, axis=1, keepdims=True), 0.0) * fn   # never behind
         pole = pole / np.maximum(np.linalg.norm(pole, axis=1), 1e-12)[:, None]
         a = (l1 ** 2 - l2 ** 2 + Dc ** 2) / (2 * Dc)
         K2 = H + u * a[:, None] + pole * np.sqrt(np.maximum(l1 ** 2 - a ** 2, 0.0))[:, None]
@@ -161,6 +185,14 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
     rot[fixed] = snapped.rotations[fixed]             # exact hub poses
     height[fixed] = snapped.root_height[fixed]
     return snapped.copy(rotations=quat.unroll(rot, axis=0).astype(np.float32), root_height=height)
+
+
+def _reach(sk, knee: int, ankle: int, flex: np.ndarray) -> tuple[float, float]:
+    """(least, most) hip-ankle distance of a leg whose knee flexion stays in ``flex`` (lo, hi):
+    ``|hip - ankle|^2 = thigh^2 + shin^2 + 2 thigh shin cos(flexion)``, a hair inside."""
+    l1, l2 = float(np.linalg.norm(sk.offsets[knee])), float(np.linalg.norm(sk.offsets[ankle]))
+    d = np.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * np.cos(np.clip(flex, 0.0, np.pi)))
+    return float(d[1]) + 1e-4, float(d[0]) - 1e-4
 
 
 def _smooth_drop(need: np.ndarray, fixed: np.ndarray, half: int = 4) -> np.ndarray:

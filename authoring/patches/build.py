@@ -327,7 +327,8 @@ def build_patch_library(takes, params: PatchBuildParams | None = None, graph=Non
     lib = PatchLibrary(target, patches, list(class_names),
                        np.asarray(class_rot, np.float32).reshape(-1, J, 4) if class_names else None,
                        np.asarray(class_h, np.float32) if class_names else None, fps,
-                       {"source": "authoring.patches", "takes": [t.name for t in takes]})
+                       {"source": "authoring.patches", "takes": [t.name for t in takes],
+                        **_knee_meta(takes)})
 
     # ---- 6. single-character patches ------------------------------------------------------------
     if singles == "graph":
@@ -344,6 +345,15 @@ def build_patch_library(takes, params: PatchBuildParams | None = None, graph=Non
                            lib.pose_class_height, fps, lib.meta)
     return BuildResult(lib, episodes, dropped, sizes, chosen, list(lib.pose_class_names), table,
                        len(pool), stride, {class_names[c]: v for c, v in snap_err.items() if c < len(class_names)})
+
+
+def _knee_meta(takes) -> dict:
+    """``{"knee_flexion_deg": [[least left, right], [most left, right]]}`` of the takes' knees (what
+    the foot check compares a bake with), or {} when their legs are not known."""
+    from authoring.motion_graph.footfix import knee_range
+    clips = [c for t in takes for c in getattr(t, "clips", [getattr(t, "clip", None)]) if c is not None]
+    r = knee_range(clips) if clips else None
+    return {} if r is None else {"knee_flexion_deg": np.degrees(r).round(3).tolist()}
 
 
 # ------------------------------------------------------------------------------------------

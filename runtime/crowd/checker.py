@@ -289,10 +289,10 @@ def summarize(goal_rows, per_char, pair_hits, obstacle_hits) -> dict:
     }
 
 
-def check_crowd_feet(stage_path, roots) -> dict:
+def check_crowd_feet(stage_path, roots, knee_range=None) -> dict:
     """Planted-foot slide of the crowd's characters (their SkelRoot paths ``roots``) as written
     in the baked stage, read through UsdSkel by the detector of :mod:`runtime.footslide` (not
     the synthesizer's contacts): mean, p95, sliding share, lowest
-    foot, knee flexion range, ``within_limits``."""
+    foot, knee flexion range (against the capture's ``knee_range`` when given), ``within_limits``."""
     from ..footslide import feet_report
-    return feet_report(stage_path, roots)
+    return feet_report(stage_path, roots, knee_range)

@@ -26,7 +26,7 @@ import numpy as np
 from . import quat
 from .skeleton import Skeleton
 
-__all__ = ["CONTACT_POINTS", "LegJoints", "leg_joints", "contact_point_positions", "detect_contacts", "clip_contacts",
+__all__ = ["CONTACT_POINTS", "LegJoints", "leg_joints", "knee_flexion", "contact_point_positions", "detect_contacts", "clip_contacts",
            "planted", "contacts_of", "contact_summary", "planted_speeds", "slide_figures", "SLIDING"]
 
 SLIDING = 0.10          # m/s: a planted point moving faster than this is sliding
@@ -76,6 +76,16 @@ def leg_joints(skeleton: Skeleton) -> LegJoints:
             return LegJoints(idx[:, 0].copy(), idx[:, 1].copy(), idx[:, 2].copy(), idx[:, 3].copy(), off)
     known = "; ".join("/".join(n for n in left if n) for left, _ in _FAMILIES)
     raise ValueError(f"skeleton has no known leg joints (expected one of: {known})")
+
+
+def knee_flexion(legs: LegJoints, global_positions: np.ndarray) -> np.ndarray:
+    """Knee flexion (radians, 0 = straight) of both legs, ``(..., 2)`` (left, right): the angle
+    between thigh (hip to knee) and shin (knee to ankle), from global joint positions."""
+    gp = global_positions
+    t = gp[..., legs.knee, :] - gp[..., legs.hip, :]
+    s = gp[..., legs.ankle, :] - gp[..., legs.knee, :]
+    c = np.sum(t * s, axis=-1) / np.maximum(np.linalg.norm(t, axis=-1) * np.linalg.norm(s, axis=-1), 1e-12)
+    return np.arccos(np.clip(c, -1.0, 1.0))
 
 
 def contact_point_positions(legs: LegJoints, global_rotations: np.ndarray, global_positions: np.ndarray) -> np.ndarray:

@@ -19,7 +19,8 @@ world orientation and moves rigidly with the ankle), vectorized over characters 
   (a long pivot is not held forever).
 * **The leg** keeps its knee in the plane through the hip, the new ankle and the old knee.
   The hip-ankle distance is kept within what the capture's knee flexion range allows
-  (:attr:`FootLockModel.flex_min` .. :attr:`flex_max`, measured over the library's frames):
+  (:attr:`FootLockModel.flex_min` .. :attr:`flex_max`: the capture's range the library build kept in
+  its ``meta["knee_flexion_deg"]``, else measured over the library's frames):
   no hyperextension, no flexion the capture never shows. When a pinned foot is out of reach
   the whole body is lowered (the hips, up to :data:`MAX_HIP_DROP`, never so far that the
   other knee would bend more than the capture's), then the pin is followed only as far as the
@@ -40,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import quat
-from .contacts import LegJoints, clip_contacts, leg_joints, planted
+from .contacts import LegJoints, clip_contacts, knee_flexion, leg_joints, planted
 
 __all__ = ["BLEND_FRAMES", "MAX_CORRECTION", "MAX_HIP_DROP", "FootLockModel", "LockState", "library_contacts",
            "grounded", "lock_step", "solve_legs", "lock_skel_arrays", "lock_positions", "played_planted"]
@@ -110,14 +111,6 @@ def grounded(library, legs: LegJoints, local: np.ndarray, height: float = GROUND
     return (y - floor < height) & (np.abs(vy) < vspeed)
 
 
-def _leg_angles(legs: LegJoints, gp: np.ndarray) -> np.ndarray:
-    """Knee flexion (radians, 0 = straight) of both legs, (..., 2), from joint positions."""
-    t = gp[..., legs.knee, :] - gp[..., legs.hip, :]
-    s = gp[..., legs.ankle, :] - gp[..., legs.knee, :]
-    c = np.sum(t * s, axis=-1) / np.maximum(np.linalg.norm(t, axis=-1) * np.linalg.norm(s, axis=-1), 1e-12)
-    return np.arccos(np.clip(c, -1.0, 1.0))
-
-
 _MODELS: dict[int, tuple] = {}
 
 
@@ -164,8 +157,11 @@ class FootLockModel:
         f = np.arange(T)
         pos, rot = evaluate_poses(library, f, f, np.zeros(T), np.zeros((T, 3)))
         gr, gp = forward_kinematics(sk, pos, rot)
-        if T:
-            flex = _leg_angles(legs, gp)
+        stored = (getattr(library, "meta", None) or {}).get("knee_flexion_deg")
+        if stored is not None:         # the capture's own range, kept by the library build
+            fmin, fmax = np.radians(np.asarray(stored[0], float)), np.radians(np.asarray(stored[1], float))
+        elif T:
+            flex = knee_flexion(legs, gp)
             fmin, fmax = flex.min(axis=0), flex.max(axis=0)
         else:
             fmin, fmax = np.zeros(2), np.full(2, np.pi / 2)
@@ -257,7 +253,8 @@ def solve_legs(model: FootLockModel, hip, knee, ankle, d, forward, max_drop: flo
     Args:
         hip, knee, ankle: (..., 2, 3) joint positions (left, right).
         d: (..., 2, 2) horizontal corrections (x, z) of the feet.
-        forward: (..., 3) the character's facing direction (the knee's side when a leg is straight).
+        forward: (..., 3) the character's facing direction (the knee's side: a straight leg bends
+            towards it, and a knee is never put behind the hip-ankle line).
 
     Returns ``(drop (...,), knee (..., 2, 3), ankle (..., 2, 3))``: how far the whole body is
     lowered, and the new knee and ankle positions (the hips are at ``hip - drop * Y``)."""
@@ -286,13 +283,17 @@ def solve_legs(model: FootLockModel, hip, knee, ankle, d, forward, max_drop: flo
     Dc = np.clip(D, model.reach_min, model.reach_max)     # only poses outside the range to begin with
     u = v / np.maximum(D, 1e-12)[..., None]
     tgt = h + u * Dc[..., None]
-    # knee: in the plane of the hip, the new ankle and the old knee
+    # knee: in the plane of the hip, the new ankle and the old knee, on the front side
     pole = knee - hip
     pole = pole - np.sum(pole * u, axis=-1, keepdims=True) * u
     pn = np.linalg.norm(pole, axis=-1)
     fwd = np.broadcast_to(np.asarray(forward, dtype=np.float64)[..., None, :], pole.shape)
     fwd = fwd - np.sum(fwd * u, axis=-1, keepdims=True) * u
     pole = np.where((pn > 1e-6)[..., None], pole, fwd)
+    # never behind the line: a knee the moved ankle leaves behind it is mirrored to the front
+    fn = fwd / np.maximum(np.linalg.norm(fwd, axis=-1), 1e-12)[..., None]
+    pf = np.sum(pole * fn, axis=-1, keepdims=True)
+    pole = pole - 2.0 * np.minimum(pf, 0.0) * fn
     pole = pole / np.maximum(np.linalg.norm(pole, axis=-1), 1e-12)[..., None]
     a = (model.thigh ** 2 - model.shin ** 2 + Dc ** 2) / (2 * Dc)
     b = np.sqrt(np.maximum(model.thigh ** 2 - a ** 2, 0.0))

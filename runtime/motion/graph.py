@@ -150,9 +150,13 @@ class MotionGraph:
     # -- construction --------------------------------------------------------------------------
     @classmethod
     def from_clips(cls, skeleton, fps, node_rotations, node_height, node_state, node_labels,
-                   edge_src, edge_dst, edge_state, edge_labels, clips, meta=None) -> "MotionGraph":
+                   edge_src, edge_dst, edge_state, edge_labels, clips, meta=None, radius=None) -> "MotionGraph":
+        """``radius``: per clip its frames' collision radius when not the clips' own bounding
+        cylinders (:func:`edge_tables`), e.g. a build that corrects feet after snapping keeps
+        the snapped body's."""
         starts = np.concatenate([[0], np.cumsum([c.num_frames for c in clips])]).astype(np.int64)
-        radius, top = zip(*(edge_tables(c) for c in clips)) if clips else ((), ())
+        own, top = zip(*(edge_tables(c) for c in clips)) if clips else ((), ())
+        radius = own if radius is None else radius
         contacts = [contacts_of(c) for c in clips]
         return cls(
             skeleton=skeleton, fps=float(fps),

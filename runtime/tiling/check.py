@@ -15,8 +15,9 @@ recomputes
   pair of characters that are not in the same patch instance on that frame is tested with a
   separating-axis test (brute force over pairs per frame, no space-time index); boxes against
   obstacles likewise;
-* **deformation** per frame against the limits (3 cm stretch, 7 deg bend, 0.018 s time shift) by
-  comparing each deformed fragment with the library's rest fragment (own code, not the tiler's);
+* **deformation** per frame against the limits (3 cm stretch, 7 deg bend, 0.018 s time shift;
+  3 mm of glide: stretch where the rest motion stands, under 1 cm a frame) by comparing each
+  deformed fragment with the library's rest fragment (own code, not the tiler's);
 * **interpersonal constraints** of every instance (relative position/heading/time error).
 
 :func:`check_repeating` lays a wrap-around tile out 3 x 3 (every instance copied by the lattice
@@ -57,11 +58,12 @@ class TilingCheckReport(CheckReport):
     max_stretch: float = 0.0
     max_bend_deg: float = 0.0
     max_time_shift: float = 0.0
+    max_glide: float = 0.0
     frames_over_limits: int = 0
     constraint_error: float = 0.0
     step_mismatch: float = 0.0
     links_disagree: int = 0
-    limits: tuple = (0.03, 7.0, 0.018)
+    limits: tuple = (0.03, 7.0, 0.018, 0.003)
 
     @property
     def ok(self) -> bool:
@@ -79,7 +81,8 @@ class TilingCheckReport(CheckReport):
                 "danglings": len(self.danglings), "interpenetrations": self.interpenetrations,
                 "obstacle_hits": self.obstacle_hits, "frames_over_limits": self.frames_over_limits,
                 "max_stretch_cm": round(100 * self.max_stretch, 3), "max_bend_deg": round(self.max_bend_deg, 3),
-                "max_time_shift_s": round(self.max_time_shift, 5), "constraint_error": round(self.constraint_error, 5),
+                "max_time_shift_s": round(self.max_time_shift, 5), "max_glide_cm": round(100 * self.max_glide, 3),
+                "constraint_error": round(self.constraint_error, 5),
                 "step_mismatch_cm": round(100 * self.step_mismatch, 3), "links_disagree": self.links_disagree}
 
     def __str__(self):
@@ -89,7 +92,8 @@ class TilingCheckReport(CheckReport):
         return ("tiling check: " + ("OK" if s["ok"] else "FAILED") + f" | {s['patches']} patches, {s['characters']} characters, "
                 f"{s['stitches']} stitches | dangling {s['danglings']} | interpenetrations {s['interpenetrations']} "
                 f"| obstacle hits {s['obstacle_hits']} | frames over limits {s['frames_over_limits']} "
-                f"(max stretch {s['max_stretch_cm']} cm, bend {s['max_bend_deg']} deg, shift {s['max_time_shift_s']} s) "
+                f"(max stretch {s['max_stretch_cm']} cm, bend {s['max_bend_deg']} deg, shift {s['max_time_shift_s']} s, "
+                f"glide {s['max_glide_cm']} cm) "
                 f"| constraint error {s['constraint_error']}")
 
 
@@ -182,7 +186,7 @@ def _sat(ca, la, hxa, hza, cb, lb, hxb, hzb, period):
 
 
 def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: float = 2e-3,
-                 limits=(0.03, 7.0, 0.018), slack: float = 1e-4, region=None, wrap=None,
+                 limits=(0.03, 7.0, 0.018, 0.003), slack: float = 1e-4, region=None, wrap=None,
                  max_examples: int = 10) -> TilingCheckReport:
     """Check a :class:`TilingResult`. ``region``/``wrap`` override the result's (used by
     :func:`check_repeating`). ``slack`` is the numerical allowance on the limits."""
@@ -214,7 +218,8 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
                 rep.danglings.append((int(P[r, 0]), int(P[r, 1]), "entry" if kind == 0 else "exit",
                                       float(P[r, 5]), float(P[r, 6]), float(P[r, 8])))
     # -- deformation and constraints -----------------------------------------------------------
-    lim_s, lim_b, lim_t = limits
+    lim_s, lim_b, lim_t = limits[:3]
+    lim_g = limits[3] if len(limits) > 3 else np.inf
     over = 0
     for i in range(res.num_instances):
         p = res.library.patches[res.patch[i]]
@@ -227,6 +232,7 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
             d0, d1 = np.diff(r0, axis=0), np.diff(x1, axis=0)
             l0, l1 = np.linalg.norm(d0, axis=1), np.linalg.norm(d1, axis=1)
             stretch = np.abs(l1 - l0)
+            glide = np.where(l0 < 0.01, stretch, 0.0)          # a standing frame moved along the ground
             shift = np.abs(np.diff(t1) - np.diff(t0))
             bend_h = np.abs(np.diff(h1) - np.diff(f.heading))
             ang = np.arctan2(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0], np.einsum("ij,ij->i", d0, d1))
@@ -238,7 +244,9 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
             rep.max_stretch = max(rep.max_stretch, float(stretch.max(initial=0)))
             rep.max_bend_deg = max(rep.max_bend_deg, float(bend.max(initial=0)))
             rep.max_time_shift = max(rep.max_time_shift, float(shift.max(initial=0)))
-            over += int(np.count_nonzero((stretch > lim_s + slack) | (bend > lim_b + 100 * slack) | (shift > lim_t + slack)))
+            rep.max_glide = max(rep.max_glide, float(glide.max(initial=0)))
+            over += int(np.count_nonzero((stretch > lim_s + slack) | (bend > lim_b + 100 * slack) | (shift > lim_t + slack)
+                                         | (glide > lim_g + slack)))
         for c in p.constraints:
             a, b = sls[c.frag_a].start + c.frame_a, sls[c.frag_b].start + c.frame_b
             ha = res.heading[i][a]
@@ -346,8 +354,8 @@ def check_repeating(res, **kw) -> TilingCheckReport:
     return rep
 
 
-def check_tiling_feet(stage_path, roots) -> dict:
+def check_tiling_feet(stage_path, roots, knee_range=None) -> dict:
     """Planted-foot slide of tiled characters (their SkelRoot paths ``roots``) as written in a
     baked stage, measured like the crowd's (:func:`runtime.footslide.feet_report`)."""
     from ..footslide import feet_report
-    return feet_report(stage_path, roots)
+    return feet_report(stage_path, roots, knee_range)

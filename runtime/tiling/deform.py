@@ -59,13 +59,20 @@ PORT_ROWS = 6        # x, z, x_nb, z_nb, heading, time per port
 
 @dataclass(frozen=True)
 class Limits:
+    """Per-frame deformation limits of a patch's motion paths. ``stretch``, ``bend_deg`` and
+    ``time_shift`` are Kim, Hwang, Hyun and Lee (2012)'s (3 cm, 7 deg, 0.018 s per frame). ``glide``
+    bounds the stretch of *standing* frames (rest segments shorter than ``min_segment``): a
+    standing character moved 3 cm a frame glides at 0.9 m/s with both feet planted, which no foot
+    lock can hide; 3 mm a frame (9 cm/s) is what leg IK absorbs."""
     stretch: float = 0.03          # m per frame
     bend_deg: float = 7.0          # degrees per frame
     time_shift: float = 0.018      # s per frame
     min_segment: float = 0.01      # m: shorter segments have no path direction (standing)
+    glide: float = 0.003           # m per frame: stretch of a standing frame
 
-    def ok(self, stretch: float, bend_deg: float, shift: float) -> bool:
-        return stretch <= self.stretch + 1e-9 and bend_deg <= self.bend_deg + 1e-9 and shift <= self.time_shift + 1e-9
+    def ok(self, stretch: float, bend_deg: float, shift: float, glide: float = 0.0) -> bool:
+        return (stretch <= self.stretch + 1e-9 and bend_deg <= self.bend_deg + 1e-9
+                and shift <= self.time_shift + 1e-9 and glide <= self.glide + 1e-9)
 
 
 DEFAULT_LIMITS = Limits()
@@ -75,8 +82,9 @@ def deformation_measures(rest_xz, rest_heading, rest_time, xz, heading, time, se
     """Per-segment deformation of paths (any placement: rigid motions measure zero).
 
     Arrays are flat over frames; ``seg_valid`` (N-1,) marks consecutive frames of one fragment.
-    Returns (stretch (N-1,) m, bend (N-1,) deg, shift (N-1,) s), zero where not ``seg_valid``.
-    Bend at segment i compares segments i-1 and i (0 at a fragment's first segment).
+    Returns (stretch (N-1,) m, bend (N-1,) deg, shift (N-1,) s, glide (N-1,) m), zero where not
+    ``seg_valid``; glide is the stretch of standing segments (rest length under ``min_segment``),
+    zero elsewhere. Bend at segment i compares segments i-1 and i (0 at a fragment's first segment).
     """
     d0 = np.diff(rest_xz, axis=0)
     d1 = np.diff(xz, axis=0)
@@ -96,7 +104,8 @@ def deformation_measures(rest_xz, rest_heading, rest_time, xz, heading, time, se
         pb = np.zeros_like(bend)
         pb[1:] = np.where(both, drot, 0.0)
         bend = np.maximum(bend, pb)
-    return stretch, np.degrees(bend), shift
+    glide = np.where(l0 < min_segment, stretch, 0.0)
+    return stretch, np.degrees(bend), shift, glide
 
 
 def _pinv_sym(K):
@@ -280,7 +289,7 @@ class PatchDeformer:
         return self.xz + u, self.heading + phi, self.time + tau
 
     def measures(self, xz, heading, time):
-        """Per-segment (stretch, bend deg, shift) of deformed patch-frame arrays."""
+        """Per-segment (stretch, bend deg, shift, glide) of deformed patch-frame arrays."""
         return deformation_measures(self.xz, self.heading, self.time, xz, heading, time, self.seg_valid)
 
 

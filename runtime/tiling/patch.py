@@ -511,5 +511,6 @@ def single_character_patches(graph, labels=DEFAULT_SINGLE_LABELS, states=("walki
                                             graph.skeleton, [frag], (), graph.fps, meta={"edge": e}))
     return PatchLibrary(graph.skeleton, patches, [f"node:{i}" for i in range(graph.num_nodes)],
                         np.asarray(graph.node_rotations, np.float32), np.asarray(graph.node_height, np.float32),
-                        graph.fps, {"source": "motion_graph", "graph": str(graph.path or "")})
+                        graph.fps, {"source": "motion_graph", "graph": str(graph.path or ""),
+                                    **{k: graph.meta[k] for k in ("knee_flexion_deg",) if k in graph.meta}})
 

@@ -195,9 +195,10 @@ class TilingState:
         rc = r.reshape(-1, 6)
         if len(cols) and (np.max(np.abs(rc[:, [0, 1, 4, 5]])) > 1e-6 or np.max(np.abs(rc[:, 2:4])) > cfg.rigid_step):
             lxz, lh, lt = d.deform(r, cols)
-            st, be, sh = deformation_measures(d.xz, d.heading, d.time, lxz, lh, lt, d.seg_valid, cfg.limits.min_segment)
+            st, be, sh, gl = deformation_measures(d.xz, d.heading, d.time, lxz, lh, lt, d.seg_valid,
+                                                  cfg.limits.min_segment)
             worst = (float(st.max(initial=0)), float(be.max(initial=0)), float(sh.max(initial=0)))
-            ok = cfg.limits.ok(*worst)
+            ok = cfg.limits.ok(*worst, float(gl.max(initial=0)))
         else:
             lxz, lh, lt = d.xz, d.heading, d.time
             worst, ok = (0.0, 0.0, 0.0), True
