@@ -182,7 +182,7 @@ class Extender:
         order = self._ranked(cid, c, row)
         # pass 1: single-character candidates, placed exactly on the tail (rigid), all tested in
         # one vectorized space-time query; then the multi-character ones in preference order
-        single = order[~c["multi"][order]][:s.max_singles]
+        single = order[~c["multi"][order]]
         multi = order[c["multi"][order]]
         if len(multi):
             # interactions first whenever partners are in place (the fit says so quickly)
@@ -192,9 +192,18 @@ class Extender:
         px, pz, ths, _, _ = self.entries.aligned_origins(c, single, row)
         places = np.column_stack([px, pz, ths, row[3] - c["ptime"][single]])
         ps = c["p"][single]
+        masks = self.cornering.park_mask(ps, places, extra=self.cornering.s.near)
+        # the preferred ``max_singles``; when none of them is parkable (the character is on the
+        # way of a live interaction), also the parkable ones further down the order -- the ways
+        # out the look-aheads counted on (else those that at least stop clear)
+        keep = np.arange(len(single)) < s.max_singles
+        if not masks[0][keep].any():
+            keep |= masks[0] if masks[0].any() else masks[2]
+        single, ps, places = single[keep], ps[keep], places[keep]
+        masks = tuple(m[keep] for m in masks)
         own = {ro.res_owner[cid]}
         conns = [[(int(c["j"][k]), key)] for k in single]
-        cand, hits = yield from self._choose_single(ps, places, conns, own, sync)
+        cand, hits = yield from self._choose_single(ps, places, conns, own, sync, masks)
         if self.tick.epoch != epoch:
             # paused, and the world moved on: the choice stands if it (and room to stop after
             # it) is still clear -- one query; else the search runs again, in one go
@@ -286,7 +295,7 @@ class Extender:
         self.stats["forced"] += 1
         self.commit(best, chars_by_key)
 
-    def _choose_single(self, ps, places, conns, own, sync=True):
+    def _choose_single(self, ps, places, conns, own, sync=True, masks=None):
         """The first single-character candidate (preference order) that is valid with room to
         stop after it (``probe``) and that cannot be cornered by a long multi-character
         instance (:meth:`~runtime.tiling.cornering.Cornering.park_mask`, else
@@ -305,7 +314,7 @@ class Extender:
         if n == 0:
             return None, np.zeros(0, np.int64)
         m = st.cfg.margin + self.s.clearance
-        park, far = cor.park_mask(ps, places, extra=cor.s.near)
+        park, far, stop = masks if masks is not None else cor.park_mask(ps, places, extra=cor.s.near)
         done = 0
         hits = np.zeros(n, np.int64)
         ph = np.zeros(n, np.int64)
@@ -319,6 +328,8 @@ class Extender:
             for k in free:
                 if far[k]:
                     return st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k]), hits
+                if not stop[k]:
+                    continue                            # it would stop on an interaction's way
                 # near an interaction or unparkable by the quick test: is there a way on after
                 # it (bounded lookahead)? A walker cannot turn on the spot, so one step of
                 # clearance is not enough near the path of an interaction
@@ -329,13 +340,17 @@ class Extender:
             if not sync and done < n:
                 yield
         ok = np.flatnonzero(hits == 0)                      # free but no room to go on: still better than nothing
-        ok = ok[np.lexsort((ph[ok], ~park[ok]))]             # parkable first, then the least obstructed stop
+        # parkable first, then those that at least stop clear of the interactions' way, then
+        # the least obstructed stop
+        ok = ok[np.lexsort((ph[ok], ~stop[ok], ~park[ok]))]
         if len(ok):
             i = int(ok[0])
             if not park[i]:
                 # every free one may be cornered: look further ahead (a larger, still bounded, budget)
                 cor.lookaheads_left = max(cor.lookaheads_left, 3 * cor.s.max_lookaheads)
                 for k in ok[:3 * cor.s.max_lookaheads]:
+                    if stop[i] and not stop[k]:
+                        break
                     cand = yield from self._with_way_on(ps, places, conns, k, sync)
                     if cand is not None:
                         return cand, hits
