@@ -16,8 +16,10 @@ Hwang, Hyun and Lee 2012, section 5.3).
   growing batches (same choice, less work).
 
 When nothing is valid the character's own unplayed last patch is taken back, or the others'
-unplayed patches in the way yield, or a few jittered placements are tried; only then the least
-overlapping patch is forced (``stats["forced"]``).
+unplayed patches in the way yield, or a few jittered placements are tried, or any patch of its
+pose class that overlaps no committed motion and no obstacle is taken (standing idle at the tail
+first: the character stays where it is); only when there is none is the least overlapping patch
+forced (``stats["forced"]``: the checker will report the overlap).
 
 An extension is a generator (:meth:`Extender.steps`) that yields between its costly steps
 (candidate batches, look-aheads, interaction fits), so the tick can pause it and resume it on
@@ -182,7 +184,7 @@ class Extender:
         order = self._ranked(cid, c, row)
         # pass 1: single-character candidates, placed exactly on the tail (rigid), all tested in
         # one vectorized space-time query; then the multi-character ones in preference order
-        single = order[~c["multi"][order]]
+        single = order[~c["multi"][order]][:s.max_singles]
         multi = order[c["multi"][order]]
         if len(multi):
             # interactions first whenever partners are in place (the fit says so quickly)
@@ -192,18 +194,9 @@ class Extender:
         px, pz, ths, _, _ = self.entries.aligned_origins(c, single, row)
         places = np.column_stack([px, pz, ths, row[3] - c["ptime"][single]])
         ps = c["p"][single]
-        masks = self.cornering.park_mask(ps, places, extra=self.cornering.s.near)
-        # the preferred ``max_singles``; when none of them is parkable (the character is on the
-        # way of a live interaction), also the parkable ones further down the order -- the ways
-        # out the look-aheads counted on (else those that at least stop clear)
-        keep = np.arange(len(single)) < s.max_singles
-        if not masks[0][keep].any():
-            keep |= masks[0] if masks[0].any() else masks[2]
-        single, ps, places = single[keep], ps[keep], places[keep]
-        masks = tuple(m[keep] for m in masks)
         own = {ro.res_owner[cid]}
         conns = [[(int(c["j"][k]), key)] for k in single]
-        cand, hits = yield from self._choose_single(ps, places, conns, own, sync, masks)
+        cand, hits = yield from self._choose_single(ps, places, conns, own, sync)
         if self.tick.epoch != epoch:
             # paused, and the world moved on: the choice stands if it (and room to stop after
             # it) is still clear -- one query; else the search runs again, in one go
@@ -250,7 +243,8 @@ class Extender:
         """Nothing fits: the characters whose not-yet-played patches block the least-overlapping
         candidate yield them (bounded per tick), or this character takes back its own last one
         (a different previous patch opens other ways), or jittered placements of the preferred
-        ones are tried; else the least-overlapping one is forced."""
+        ones are tried; else any patch of its pose class that overlaps no committed motion
+        (:meth:`_last_resort`); else the least-overlapping one is forced."""
         st = self.state
         s = self.s
         ro = self.roster
@@ -291,11 +285,39 @@ class Extender:
             if cand.limits_ok and not st.occupancy.collides(cand, ignore={ro.res_owner[chars_by_key[k2]] for _, k2 in forced}):
                 self.commit(cand, chars_by_key)
                 return
-        # forced: the candidate that overlaps least
+        cand = self._last_resort(c, row, key, own)
+        if cand is not None:
+            self.commit(cand, chars_by_key)
+            return
+        # forced: nothing of its pose class fits anywhere; the candidate that overlaps least
+        # (counted: the checker will find the overlap)
         self.stats["forced"] += 1
         self.commit(best, chars_by_key)
 
-    def _choose_single(self, ps, places, conns, own, sync=True, masks=None):
+    def _last_resort(self, c, row, key, own):
+        """Every single-character patch of the tail's pose class, rigid on the tail, standing
+        idle ones first (the character stays where it is), then in table order, banned ones
+        included: the first that overlaps no committed motion and no obstacle (the config's
+        margin, no clearance, no room to stop required), else the first that overlaps only
+        others' reservations, else None. One or two vectorized queries."""
+        st = self.state
+        sel = np.flatnonzero(~c["multi"])
+        if not len(sel):
+            return None
+        sel = sel[np.argsort(~c["stand"][sel], kind="stable")]
+        px, pz, ths, _, _ = self.entries.aligned_origins(c, sel, row)
+        places = np.column_stack([px, pz, ths, row[3] - c["ptime"][sel]])
+        ps = c["p"][sel]
+        self.stats["evaluated"] += len(sel)
+        self.tick.work += 2.0 + 0.2 * len(sel)
+        f = st.occupancy.rigid_batch_free(ps, places, ignore=own)
+        if f < 0:
+            f = st.occupancy.rigid_batch_free(ps, places, ignore=own | set(self.roster.res_owner))
+        if f < 0:
+            return None
+        return st.rigid_candidate(int(ps[f]), tuple(places[f]), [(int(c["j"][sel[f]]), key)])
+
+    def _choose_single(self, ps, places, conns, own, sync=True):
         """The first single-character candidate (preference order) that is valid with room to
         stop after it (``probe``) and that cannot be cornered by a long multi-character
         instance (:meth:`~runtime.tiling.cornering.Cornering.park_mask`, else
@@ -314,7 +336,7 @@ class Extender:
         if n == 0:
             return None, np.zeros(0, np.int64)
         m = st.cfg.margin + self.s.clearance
-        park, far, stop = masks if masks is not None else cor.park_mask(ps, places, extra=cor.s.near)
+        park, far, stop = cor.park_mask(ps, places, extra=cor.s.near)
         done = 0
         hits = np.zeros(n, np.int64)
         ph = np.zeros(n, np.int64)
