@@ -6,7 +6,9 @@ that one would stop: for good if it stands, else that walker must still have a w
 never crosses the instance's future path, a one-patch look-ahead), and (b) a single-character
 candidate is preferred only if neither its path (sampled) nor its exit nor its park box lies on
 a spot a live interaction passes later (``berth``; ``near`` more, or the look-ahead from its
-exit, near an interaction).
+exit, near an interaction); one that is not parkable is taken only if it stops clear (its exit
+and park box keep the berth: walking through a spot an interaction passes later is fine,
+stopping there is not) while any such candidate exists.
 
 Every character also *reserves* where it will be just after its tail (its last box carried on
 at the last velocity, braking to a stop over ``probe`` frames, then held ``hold`` frames), so
