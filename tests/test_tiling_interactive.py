@@ -120,6 +120,44 @@ def test_interaction_corners_nobody(bench_prepared):
     assert rep.ok, str(rep)
 
 
+@pytest.mark.slow
+def test_bench_scenario_sweep_forces_nothing(bench_prepared):
+    # 40 seeds of the bench's two-team scenario (20 s each, targets changing every 5 s): nobody
+    # is cornered by an interaction, so no patch is ever forced and nothing interpenetrates
+    bad = {}
+    multi = 0
+    for seed in range(40):
+        it, states = _bench_teams(bench_prepared, seed=seed)
+        rep = check_tiling(it.result())
+        multi += it.stats["multi"]
+        if it.stats["forced"] or rep.interpenetrations or np.isnan(states).any():
+            bad[seed] = (it.stats["forced"], rep.interpenetrations)
+    assert not bad, bad                                    # seed: (forced, interpenetrations)
+    assert multi >= 10                                     # interactions still happen
+
+
+def test_boxed_in_character_stands_rather_than_forcing(bench_prepared):
+    # walls 0.8 m from a standing character and a clearance no candidate can keep: the search
+    # (one preferred candidate) finds nothing valid, so the last resort keeps the character where
+    # it is with a standing patch that touches no wall, instead of forcing one through a wall
+    from runtime.tiling.region import Obstacle
+    w = 0.8
+    walls = [Obstacle((w + 0.2, 0.0), (0.2, 2.0)), Obstacle((-w - 0.2, 0.0), (0.2, 2.0)),
+             Obstacle((0.0, w + 0.2), (2.0, 0.2)), Obstacle((0.0, -w - 0.2), (2.0, 0.2))]
+    it = InteractiveTiling(bench_prepared, seed=0, obstacles=walls, max_singles=1, clearance=1.5)
+    it.add_character((0.0, 0.0), 0.0, 0)
+    it.set_target(0, (6.0, 0.0))
+    states = []
+    for f in range(1, 151):
+        it.step(f / 30.0)
+        states.append(it.root_states())
+    states = np.array(states)
+    rep = check_tiling(it.result())
+    assert it.stats["extensions"] >= 4 and (it.tail_time > it.t).all()     # it kept moving (in place)
+    assert it.stats["forced"] == 0 and rep.obstacle_hits == 0, (it.stats, rep.summary())
+    assert np.abs(states[:, 0, :2]).max() < w
+
+
 def test_bench_scenario_is_reproducible(bench_prepared):
     it, states = _bench_teams(bench_prepared, seed=1, seconds=6.0)
     it2, states2 = _bench_teams(bench_prepared, seed=1, seconds=6.0)

@@ -6,7 +6,9 @@ that one would stop: for good if it stands, else that walker must still have a w
 never crosses the instance's future path, a one-patch look-ahead), and (b) a single-character
 candidate is preferred only if neither its path (sampled) nor its exit nor its park box lies on
 a spot a live interaction passes later (``berth``; ``near`` more, or the look-ahead from its
-exit, near an interaction).
+exit, near an interaction); one that is not parkable is taken only if it stops clear (its exit
+and park box keep the berth: walking through a spot an interaction passes later is fine,
+stopping there is not) while any such candidate exists.
 
 Every character also *reserves* where it will be just after its tail (its last box carried on
 at the last velocity, braking to a stop over ``probe`` frames, then held ``hold`` frames), so
@@ -97,12 +99,15 @@ class Cornering:
         keep ``berth`` metres more than the clearance from the live multi-character instances
         -- the only ones reaching far beyond everyone's horizon: a character that walks onto or
         stops on a spot an interaction will pass later could be cornered there. Vectorized
-        over the candidates. Returns (parkable, parkable with ``extra`` metres more berth)."""
+        over the candidates. Returns (parkable, parkable with ``extra`` metres more berth, can
+        stop clear: the exit and park box alone keep the berth -- a character that walks through
+        a spot an interaction passes later but stops clear of its way is not cornered by it)."""
         n = len(ps)
         ok = np.ones(n, bool)
         far = np.ones(n, bool)
+        stop = np.ones(n, bool)
         if not self.s.park or not self.multi or n == 0:
-            return ok, far
+            return ok, far, stop
         st = self.state
         # whole-instance boxes first: most of the time no interaction is anywhere near
         co = st.occupancy.index.owner_extents(sorted(self.multi))
@@ -110,7 +115,7 @@ class Cornering:
         r = 7.0 + self.s.berth + extra + float(np.max(np.hypot(*(places[:, :2] - c0).T)))
         if not np.any((co[:, 0] - r <= c0[0]) & (c0[0] <= co[:, 1] + r) & (co[:, 2] - r <= c0[1]) & (c0[1] <= co[:, 3] + r)
                       & (co[:, 5] >= np.min(places[:, 3]) * self.fps)):
-            return ok, far
+            return ok, far, stop
         rxz, rh, rbox, start, t0 = self.lib.rest
         e = start[ps + 1] - 1
         th = places[:, 2]
@@ -123,7 +128,7 @@ class Cornering:
         mid = xe.mean(0)
         M = self.multi_boxes(int(q_start.min()), mid, 4.0 + self.s.berth + extra + float(np.max(np.hypot(*(xe - mid).T))))
         if M is None:
-            return ok, far
+            return ok, far, stop
         mf, mc, ml, mx, mz = M
         mg = st.cfg.margin + self.s.clearance + self.s.berth
         # points along the patch (its "shadow": no spot an interaction will cross later), the
@@ -149,7 +154,8 @@ class Cornering:
             a, bb = a[hit], bb[hit]
             hit = obb_overlap(cen[a], lat[a], hx[a], hz[a], mc[bb], ml[bb], mx[bb], mz[bb], mg)
             ok[cand[a[hit]]] = False
-        return ok, far & ok
+            stop[cand[a[hit][a[hit] >= 3 * n]]] = False
+        return ok, far & ok, stop
 
     def exit_lookahead(self, cand) -> bool:
         """:meth:`lookahead` from the exit of a single-character candidate against the live

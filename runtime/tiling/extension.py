@@ -16,8 +16,10 @@ Hwang, Hyun and Lee 2012, section 5.3).
   growing batches (same choice, less work).
 
 When nothing is valid the character's own unplayed last patch is taken back, or the others'
-unplayed patches in the way yield, or a few jittered placements are tried; only then the least
-overlapping patch is forced (``stats["forced"]``).
+unplayed patches in the way yield, or a few jittered placements are tried, or any patch of its
+pose class that overlaps no committed motion and no obstacle is taken (standing idle at the tail
+first: the character stays where it is); only when there is none is the least overlapping patch
+forced (``stats["forced"]``: the checker will report the overlap).
 
 An extension is a generator (:meth:`Extender.steps`) that yields between its costly steps
 (candidate batches, look-aheads, interaction fits), so the tick can pause it and resume it on
@@ -241,7 +243,8 @@ class Extender:
         """Nothing fits: the characters whose not-yet-played patches block the least-overlapping
         candidate yield them (bounded per tick), or this character takes back its own last one
         (a different previous patch opens other ways), or jittered placements of the preferred
-        ones are tried; else the least-overlapping one is forced."""
+        ones are tried; else any patch of its pose class that overlaps no committed motion
+        (:meth:`_last_resort`); else the least-overlapping one is forced."""
         st = self.state
         s = self.s
         ro = self.roster
@@ -282,9 +285,37 @@ class Extender:
             if cand.limits_ok and not st.occupancy.collides(cand, ignore={ro.res_owner[chars_by_key[k2]] for _, k2 in forced}):
                 self.commit(cand, chars_by_key)
                 return
-        # forced: the candidate that overlaps least
+        cand = self._last_resort(c, row, key, own)
+        if cand is not None:
+            self.commit(cand, chars_by_key)
+            return
+        # forced: nothing of its pose class fits anywhere; the candidate that overlaps least
+        # (counted: the checker will find the overlap)
         self.stats["forced"] += 1
         self.commit(best, chars_by_key)
+
+    def _last_resort(self, c, row, key, own):
+        """Every single-character patch of the tail's pose class, rigid on the tail, standing
+        idle ones first (the character stays where it is), then in table order, banned ones
+        included: the first that overlaps no committed motion and no obstacle (the config's
+        margin, no clearance, no room to stop required), else the first that overlaps only
+        others' reservations, else None. One or two vectorized queries."""
+        st = self.state
+        sel = np.flatnonzero(~c["multi"])
+        if not len(sel):
+            return None
+        sel = sel[np.argsort(~c["stand"][sel], kind="stable")]
+        px, pz, ths, _, _ = self.entries.aligned_origins(c, sel, row)
+        places = np.column_stack([px, pz, ths, row[3] - c["ptime"][sel]])
+        ps = c["p"][sel]
+        self.stats["evaluated"] += len(sel)
+        self.tick.work += 2.0 + 0.2 * len(sel)
+        f = st.occupancy.rigid_batch_free(ps, places, ignore=own)
+        if f < 0:
+            f = st.occupancy.rigid_batch_free(ps, places, ignore=own | set(self.roster.res_owner))
+        if f < 0:
+            return None
+        return st.rigid_candidate(int(ps[f]), tuple(places[f]), [(int(c["j"][sel[f]]), key)])
 
     def _choose_single(self, ps, places, conns, own, sync=True):
         """The first single-character candidate (preference order) that is valid with room to
@@ -305,7 +336,7 @@ class Extender:
         if n == 0:
             return None, np.zeros(0, np.int64)
         m = st.cfg.margin + self.s.clearance
-        park, far = cor.park_mask(ps, places, extra=cor.s.near)
+        park, far, stop = cor.park_mask(ps, places, extra=cor.s.near)
         done = 0
         hits = np.zeros(n, np.int64)
         ph = np.zeros(n, np.int64)
@@ -319,6 +350,8 @@ class Extender:
             for k in free:
                 if far[k]:
                     return st.rigid_candidate(int(ps[k]), tuple(places[k]), conns[k]), hits
+                if not stop[k]:
+                    continue                            # it would stop on an interaction's way
                 # near an interaction or unparkable by the quick test: is there a way on after
                 # it (bounded lookahead)? A walker cannot turn on the spot, so one step of
                 # clearance is not enough near the path of an interaction
@@ -329,13 +362,17 @@ class Extender:
             if not sync and done < n:
                 yield
         ok = np.flatnonzero(hits == 0)                      # free but no room to go on: still better than nothing
-        ok = ok[np.lexsort((ph[ok], ~park[ok]))]             # parkable first, then the least obstructed stop
+        # parkable first, then those that at least stop clear of the interactions' way, then
+        # the least obstructed stop
+        ok = ok[np.lexsort((ph[ok], ~stop[ok], ~park[ok]))]
         if len(ok):
             i = int(ok[0])
             if not park[i]:
                 # every free one may be cornered: look further ahead (a larger, still bounded, budget)
                 cor.lookaheads_left = max(cor.lookaheads_left, 3 * cor.s.max_lookaheads)
                 for k in ok[:3 * cor.s.max_lookaheads]:
+                    if stop[i] and not stop[k]:
+                        break
                     cand = yield from self._with_way_on(ps, places, conns, k, sync)
                     if cand is not None:
                         return cand, hits
