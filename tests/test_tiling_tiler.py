@@ -90,13 +90,18 @@ def test_portals_allow_danglings(prepared):
 
 
 def test_preference_pulls_patches_to_the_target(prepared):
+    # over a few seeds (one tiling is a random draw): with the preference, the patches lie nearer
+    # the target on average by half a metre or more, and nearer on most seeds
     far = Preference(target=(1.0, 1.0), sigma_pos=1.0)
-    til = Tiler(prepared, Region(0, 0, 8, 8, 0, 6), config=TilerConfig(seeds=8, i_max=60), seed=6, preference=far)
-    til.phase1()
-    free = Tiler(prepared, Region(0, 0, 8, 8, 0, 6), config=TilerConfig(seeds=8, i_max=60), seed=6)
-    free.phase1()
-    dist = lambda t: np.mean([math.hypot(i.place[0] - 1, i.place[1] - 1) for i in t.inst.values()])
-    assert dist(til) < dist(free) - 0.5
+    dist = lambda t: np.mean([math.hypot(i.place[0] - 1, i.place[1] - 1) for i in t.inst.values()])  # noqa: E731
+    gains = []
+    for seed in (6, 7, 8, 9):
+        til = Tiler(prepared, Region(0, 0, 8, 8, 0, 6), config=TilerConfig(seeds=8, i_max=60), seed=seed, preference=far)
+        til.phase1()
+        free = Tiler(prepared, Region(0, 0, 8, 8, 0, 6), config=TilerConfig(seeds=8, i_max=60), seed=seed)
+        free.phase1()
+        gains.append(dist(free) - dist(til))
+    assert np.mean(gains) > 0.5 and sum(g > 0 for g in gains) >= 3, gains
 
 
 @pytest.mark.slow
