@@ -238,3 +238,63 @@ def test_pose_batch_fused_and_numpy_locks_agree_across_spawns(default_graph):
         if k == 15:
             assert not a._lock.locked[5].any() or np.allclose(a._lock.res[5], 0)   # arrives unlocked
     np.testing.assert_array_equal(a._lock.locked, b._lock.locked)
+
+
+def _leg(knee_forward: float, knee_side: float = 0.0, frames: int = 4):
+    """(F, 2, 4, 3) legs (toe, ankle, knee, hip) of a character facing +Z (hips along X, left at
+    +X): the knee ``knee_forward`` m in front of the straight hip-ankle line (negative: behind),
+    ``knee_side`` m outwards."""
+    pos = np.zeros((frames, 2, 4, 3))
+    for s, x in enumerate((0.1, -0.1)):
+        pos[:, s, 3] = (x, 0.9, 0.0)                                   # hip
+        pos[:, s, 1] = (x, 0.1, 0.0)                                   # ankle straight below
+        pos[:, s, 0] = (x, 0.02, 0.12)                                 # toe ahead
+        pos[:, s, 2] = (x + (knee_side if s == 0 else -knee_side), 0.5, knee_forward)
+    return pos
+
+
+def test_signed_knee_flexion_sees_hyperextension():
+    from runtime.footslide import signed_knee_flexion
+    front = np.degrees(signed_knee_flexion(_leg(0.08)))
+    behind = np.degrees(signed_knee_flexion(_leg(-0.08)))
+    sideways = np.degrees(signed_knee_flexion(_leg(0.0, knee_side=0.15)))
+    assert np.all(front > 15.0) and np.allclose(behind, -front)
+    assert np.all(sideways > 15.0)                       # a knee turned out is bent, not hyperextended
+    # the facing comes from the hips and the feet: the same leg turned round reads the same
+    turned = _leg(-0.08)
+    turned[..., [0, 2]] *= -1.0
+    assert np.allclose(np.degrees(signed_knee_flexion(turned)), behind)
+
+
+def test_limits_hold_the_feet_the_knees_and_a_fair_share():
+    from runtime.footslide import MIN_SHARE_FRAMES
+    good = {"planted_frames": 5000, "mean_cm_s": 1.0, "p95_cm_s": 2.0, "sliding_share": 0.01,
+            "lowest_foot_m": -0.005, "knee_flexion_deg": [5.0, 100.0]}
+    assert slide_passed(good) and slide_passed(good, [4.6, 111.9])
+    assert not slide_passed({**good, "lowest_foot_m": -0.02})               # a foot through the ground
+    assert not slide_passed({**good, "knee_flexion_deg": [-3.0, 100.0]})    # hyperextension
+    assert not slide_passed(good, [4.6, 90.0])                              # more bent than the capture
+    assert slide_passed({**good, "knee_flexion_deg": [4.0, 112.5]}, [4.6, 111.9])   # within the tolerance
+    few = {**good, "planted_frames": MIN_SHARE_FRAMES - 1, "sliding_share": 0.05}
+    assert slide_passed(few) and not slide_passed({**few, "planted_frames": MIN_SHARE_FRAMES})
+
+
+def test_leg_ik_never_puts_the_knee_behind_the_leg():
+    # a bent leg whose ankle is pinned 15 cm ahead: the old knee (2 cm forward) lies behind the new
+    # hip-ankle line; the solved knee must bend forward (the character faces +Z)
+    from runtime.motion.footlock import FootLockModel, solve_legs
+    thigh, shin = np.array([0.4, 0.4]), np.array([0.4, 0.4])
+    flex = np.radians([[5.0, 5.0], [110.0, 110.0]])
+    reach = lambda f: np.sqrt(thigh ** 2 + shin ** 2 + 2 * thigh * shin * np.cos(f))  # noqa: E731
+    model = FootLockModel(None, np.zeros((1, 2), bool), thigh, shin, flex[0], flex[1], reach(flex[1]), reach(flex[0]),
+                          np.full((2, 1), -1))
+    hip = np.array([[[0.1, 0.9, 0.0], [-0.1, 0.9, 0.0]]])
+    knee = hip + [0.0, -0.3, 0.02]
+    ankle = hip + [0.0, -0.6, 0.0]
+    d = np.array([[[0.0, 0.15], [0.0, 0.0]]])
+    drop, k1, a1 = solve_legs(model, hip, knee, ankle, d, np.array([[0.0, 0.0, 1.0]]))
+    h1 = hip - drop[:, None, None] * np.array([0.0, 1.0, 0.0])
+    u = (a1 - h1) / np.linalg.norm(a1 - h1, axis=-1, keepdims=True)
+    off = (k1 - h1) - np.sum((k1 - h1) * u, axis=-1, keepdims=True) * u
+    assert off[0, 0, 2] > 0.05                                     # the pinned leg's knee is in front
+    np.testing.assert_allclose(np.linalg.norm(k1 - h1, axis=-1), thigh[None], atol=1e-9)
