@@ -110,6 +110,9 @@ def main(argv=None):
         except Exception as e:
             print(f"{name}: not measured ({type(e).__name__}: {e})", flush=True)
             continue
+        if not any(tracks for _, tracks, _ in groups):
+            print(f"{name}: no characters to measure", flush=True)
+            continue
         for lock in (False, True):
             path = out / f"{name}{'_locked' if lock else '_raw'}.usdc"
             roots = _bake(groups, fps, frames, path, lock)

@@ -194,7 +194,7 @@ def test_long_extensions_are_time_sliced_across_ticks(bench_prepared):
 
     def run():
         # the benchmark's 50 characters: ten teams of five in a 24 x 24 m arena
-        it = InteractiveTiling(bench_prepared, seed=3, work_budget=3.0, interaction_labels=("meet",))
+        it = InteractiveTiling(bench_prepared, seed=3, work_budget=1.5, interaction_labels=("meet",))
         rng = np.random.default_rng(3)
         for t in range(10):
             cx, cz = -12.0 + 6.0 * (t % 5), -6.0 + 12.0 * (t // 5)

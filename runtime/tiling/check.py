@@ -16,7 +16,8 @@ recomputes
   separating-axis test (brute force over pairs per frame, no space-time index); boxes against
   obstacles likewise;
 * **deformation** per frame against the limits (3 cm stretch, 7 deg bend, 0.018 s time shift;
-  1 cm of glide: stretch where the rest motion stands, under 1 cm a frame) by comparing each
+  1 cm of glide: how far a frame where the rest motion stands, under 1 cm a frame, carries the
+  toes along the ground by stretch and turn) by comparing each
   deformed fragment with the library's rest fragment (own code, not the tiler's);
 * **interpersonal constraints** of every instance (relative position/heading/time error).
 
@@ -232,7 +233,8 @@ def check_tiling(res, tol_pos: float = 2e-3, tol_dir: float = 1e-2, tol_time: fl
             d0, d1 = np.diff(r0, axis=0), np.diff(x1, axis=0)
             l0, l1 = np.linalg.norm(d0, axis=1), np.linalg.norm(d1, axis=1)
             stretch = np.abs(l1 - l0)
-            glide = np.where(l0 < 0.01, stretch, 0.0)          # a standing frame moved along the ground
+            # a standing frame carried along the ground or turned on the spot (feet 0.15 m out)
+            glide = np.where(l0 < 0.01, stretch + np.abs(np.diff(h1) - np.diff(f.heading)) * 0.15, 0.0)
             shift = np.abs(np.diff(t1) - np.diff(t0))
             bend_h = np.abs(np.diff(h1) - np.diff(f.heading))
             ang = np.arctan2(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0], np.einsum("ij,ij->i", d0, d1))

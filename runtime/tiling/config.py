@@ -31,7 +31,7 @@ class TilerConfig:
     jitter_max: tuple = (1.0, 25.0, 0.5)
     jitter_tries: int = 8
     max_candidates: int = 32          # Algorithm 2: candidates tried per dangling port per visit
-    margin: float = 0.01              # collision margin (m): covers pose blending between frames
+    margin: float = 0.02              # collision margin (m): covers pose blending between frames
     cell: float | None = None         # space-time hash cell (m); default: from the library's largest box
     max_query_margin: float = 0.25    # largest margin a query may use (sets the default cell)
     limits: Limits = DEFAULT_LIMITS

@@ -52,7 +52,7 @@ import scipy.sparse.linalg as spla
 
 from ..motion.planar import rotate_xz, wrap_angle
 
-__all__ = ["Limits", "DEFAULT_LIMITS", "PatchDeformer", "PORT_ROWS", "deformation_measures", "port_row_targets"]
+__all__ = ["Limits", "DEFAULT_LIMITS", "FOOT_LEVER", "PatchDeformer", "PORT_ROWS", "deformation_measures", "port_row_targets"]
 
 PORT_ROWS = 6        # x, z, x_nb, z_nb, heading, time per port
 
@@ -61,10 +61,11 @@ PORT_ROWS = 6        # x, z, x_nb, z_nb, heading, time per port
 class Limits:
     """Per-frame deformation limits of a patch's motion paths. ``stretch``, ``bend_deg`` and
     ``time_shift`` are Kim, Hwang, Hyun and Lee (2012)'s (3 cm, 7 deg, 0.018 s per frame). ``glide``
-    bounds the stretch of *standing* frames (rest segments shorter than ``min_segment``): a
-    standing character moved 3 cm a frame glides at 0.9 m/s with both feet planted, which no foot
-    lock can hide; 1 cm a frame keeps the baked tilings' planted feet within the foot check's
-    limits (docs/decisions.md)."""
+    bounds how far a *standing* frame (rest segment shorter than ``min_segment``) carries the
+    feet: its stretch plus its heading bend times :data:`FOOT_LEVER`. A standing character moved
+    3 cm a frame glides at 0.9 m/s, turned 7 deg a frame it pivots its toes at 1.1 m/s, with both
+    feet planted, which no foot lock can hide; 1 cm a frame keeps the baked tilings' planted feet
+    within the foot check's limits (docs/decisions.md)."""
     stretch: float = 0.03          # m per frame
     bend_deg: float = 7.0          # degrees per frame
     time_shift: float = 0.018      # s per frame
@@ -77,6 +78,7 @@ class Limits:
 
 
 DEFAULT_LIMITS = Limits()
+FOOT_LEVER = 0.15    # m: how far from the root's vertical axis a standing character's feet are
 
 
 def deformation_measures(rest_xz, rest_heading, rest_time, xz, heading, time, seg_valid, min_segment=0.01):
@@ -84,8 +86,8 @@ def deformation_measures(rest_xz, rest_heading, rest_time, xz, heading, time, se
 
     Arrays are flat over frames; ``seg_valid`` (N-1,) marks consecutive frames of one fragment.
     Returns (stretch (N-1,) m, bend (N-1,) deg, shift (N-1,) s, glide (N-1,) m), zero where not
-    ``seg_valid``; glide is the stretch of standing segments (rest length under ``min_segment``),
-    zero elsewhere. Bend at segment i compares segments i-1 and i (0 at a fragment's first segment).
+    ``seg_valid``; glide is how far standing segments (rest length under ``min_segment``) carry
+    the feet -- stretch plus heading bend times :data:`FOOT_LEVER` -- zero elsewhere. Bend at segment i compares segments i-1 and i (0 at a fragment's first segment).
     """
     d0 = np.diff(rest_xz, axis=0)
     d1 = np.diff(xz, axis=0)
@@ -105,7 +107,7 @@ def deformation_measures(rest_xz, rest_heading, rest_time, xz, heading, time, se
         pb = np.zeros_like(bend)
         pb[1:] = np.where(both, drot, 0.0)
         bend = np.maximum(bend, pb)
-    glide = np.where(l0 < min_segment, stretch, 0.0)
+    glide = np.where(seg_valid & (l0 < min_segment), stretch + np.abs(dh) * FOOT_LEVER, 0.0)
     return stretch, np.degrees(bend), shift, glide
 
 
