@@ -24,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # the rules, as the brief of the generator states them (not imported from it)
 CLEAR = 0.5             # m: starts and goals from obstacles
 SEAT_CLEAR = 0.72       # m: a seated character's cylinder
+BOX_CLEAR = 0.69        # m: where a box is picked up and put down (the put-down clips sweep 0.686 m)
 SPACING = 1.5           # m between endpoints
 WALK_RADIUS = 0.6       # m: free space grown by a walking character
 CHANGE = {"seat": 2.2, "box": 2.7, "put": 2.7}      # s: sitting down, picking up, putting down
@@ -87,6 +88,8 @@ def _check_rules(sc, env):
             else:
                 assert d(g.position[None])[0] >= CLEAR, where
                 target = g.position
+            if g.kind == "box" or (carrying and g.pose == "stand"):
+                assert d(g.position[None])[0] >= BOX_CLEAR, f"{where}: box handled too near an obstacle"
             if g.kind == "box":
                 crate = env.markers[g.marker].position
                 np.testing.assert_allclose(np.hypot(*(g.position - crate)), BOX_REACH, atol=1e-9)

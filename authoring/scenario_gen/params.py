@@ -25,7 +25,8 @@ class GenParams:
 
     Validity rules (Sung, Kovar and Gleicher 2005 plan exact constraints; a scenario must be
     solvable in principle): every start and goal at least ``clearance`` from obstacles (seats
-    ``seat_clearance``, the crate of a box ``crate_clearance``); every two endpoints (starts,
+    ``seat_clearance``, the crate of a box ``crate_clearance``, where a box is picked up and put
+    down ``box_clearance``); every two endpoints (starts,
     goals, seats in use) at least ``spacing`` apart; every goal reachable from the previous one
     in the free space grown by ``walk_radius``; a window opens no earlier than the geodesic
     distance at ``walk_speed`` (``carry_speed`` carrying a box) plus the time of any state
@@ -41,6 +42,9 @@ class GenParams:
     clearance: float = 0.6              # m from obstacles: starts, position goals, box stand points
     seat_clearance: float = 0.85        # m from obstacles: a seated character (cylinder up to 0.72 m)
     crate_clearance: float = 0.35       # m from obstacles: a box's crate (0.4 m cube)
+    box_clearance: float = 0.75         # m from obstacles: where a box is picked up and put down, and the
+                                        # straight carry between (the default library's pick-up, carry and
+                                        # put-down clips sweep cylinders up to 0.69 m)
     spacing: float = 1.5                # m between any two endpoints (two standing cylinders <= 0.72 m each)
     walk_radius: float = 0.6            # m: free space = obstacles grown by a walking cylinder
     grid: float = 0.25                  # m: cell size of the free-space grid (reachability, geodesics)
@@ -72,6 +76,8 @@ class GenParams:
             raise ScenarioGenError(f"group_size must be at least 2, got {self.group_size}")
         if min(self.slack, self.slack_ratio, self.margin) < 0 or min(self.walk_speed, self.carry_speed) <= 0:
             raise ScenarioGenError("slack, slack_ratio and margin must not be negative, speeds must be positive")
+        if self.box_clearance < self.clearance:
+            raise ScenarioGenError(f"box_clearance ({self.box_clearance} m) must be at least clearance ({self.clearance} m)")
         if self.clearance < self.walk_radius:
             raise ScenarioGenError(f"clearance ({self.clearance} m) must be at least walk_radius ({self.walk_radius} m): "
                                    f"endpoints must lie in the free space walks are planned in")

@@ -241,7 +241,8 @@ def _seats(dr: _Drawer, d: District, names):
 def _boxes(dr: _Drawer, d: District, names):
     """Each character walks to a box, picks it up facing it and carries it 3-7 m on, at most
     35 degrees off straight ahead (carrying clips turn only while walking on), along a straight
-    path clear of the obstacles, and puts it down there (pose "stand")."""
+    path clear of the obstacles by ``box_clearance``, and puts it down there (pose "stand");
+    the pick-up and put-down spots keep ``box_clearance`` too."""
     p = dr.p
     out = []
     for name in names:
@@ -254,11 +255,11 @@ def _boxes(dr: _Drawer, d: District, names):
             fwd = turn(np.array([0.0, 1.0]), heading)
             stand = crate + BOX_REACH * fwd
             put = np.round(stand + float(dr.rng.uniform(3.0, 7.0)) * turn(-fwd, float(dr.rng.uniform(-35.0, 35.0))), 2)
-            if np.any(dr.clearance([stand, put]) < p.clearance) or not dr.ep.clear([stand, put]).all():
+            if np.any(dr.clearance([stand, put]) < p.box_clearance) or not dr.ep.clear([stand, put]).all():
                 continue
             if float(np.hypot(*(put - crate))) < CRATE_SPACING:
                 continue
-            if dr.env.num_obstacles and not dr.env.segment_clear(stand[None], put[None], p.walk_radius)[0]:
+            if dr.env.num_obstacles and not dr.env.segment_clear(stand[None], put[None], p.box_clearance)[0]:
                 continue
             comp = dr.fs.component(stand)
             if comp == 0:
