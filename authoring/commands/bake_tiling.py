@@ -48,6 +48,7 @@ def run_tiling(args, toml: Path, out: Path, report_path: Path | None) -> int:
     from authoring.commands import CLIError
     from authoring.commands.bake_output import keep_result, print_feet
     from runtime.assets import AssetError, pause_point, temp_path
+    from runtime.footslide import knee_range_of
     from runtime.tiling.check import check_tiling, check_tiling_feet
     from runtime.tiling.scenario import TilingConfigError
     from usd_io.clips import remove_unused_clip_dirs
@@ -76,7 +77,7 @@ def run_tiling(args, toml: Path, out: Path, report_path: Path | None) -> int:
         t_write = time.perf_counter() - t0 - t_tile
         pause_point("checking")
         rep = check_tiling(res)
-        feet = check_tiling_feet(tmp, [character_path(n) for n in tracks]) if tracks else None
+        feet = check_tiling_feet(tmp, [character_path(n) for n in tracks], knee_range_of(lib)) if tracks else None
         passed = rep.passed and (feet is None or not feet["enforced"] or feet["within_limits"])
         report = {"kind": "tiling", "name": name, "summary": {**rep.summary(), "passed": bool(passed)},
                   "feet": {"tiled": feet} if feet else {}, "timing": {"tiling_seconds": t_tile, "write_seconds": t_write}}
