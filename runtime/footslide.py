@@ -29,9 +29,8 @@ import re
 import numpy as np
 
 __all__ = ["PLANT_HEIGHT", "PLANT_VSPEED", "SLIDE_SPEED", "LIMITS", "KNEE_TOLERANCE", "MIN_SHARE_FRAMES", "ENFORCED",
-           "knee_range_of",
-           "planted_slide", "slide_summary", "stage_feet", "signed_knee_flexion", "measure_stage", "feet_report",
-           "slide_passed", "slide_line"]
+           "knee_range_of", "planted_slide", "slide_summary", "stage_feet", "signed_knee_flexion", "measure_stage",
+           "feet_report", "slide_passed", "slide_line"]
 
 PLANT_HEIGHT = 0.05      # m above the foot's lowest point
 PLANT_VSPEED = 0.15      # m/s vertical
