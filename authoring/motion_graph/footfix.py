@@ -7,8 +7,9 @@ hip, the old knee and the new ankle, the thigh and shin turned by the least rota
 gets its target orientation): over a contact of a foot the foot is where the
 unsnapped take has it, plus the snap's own offset at the hub frames inside that contact,
 interpolated between them (a foot planted across two hub frames, standing, moves from one
-offset to the other over the frames between). Where a pinned foot is out of the leg's reach the hips are lowered
-(smoothly, up to :data:`MAX_DROP`). The hub frames themselves are not touched (they are exactly the hub
+offset to the other over the frames between). Knees stay within the capture's flexion range
+(:func:`knee_range`) and on the front side of the hip-ankle line. Where a pinned foot is out of the
+leg's reach the hips are lowered (smoothly, up to :data:`MAX_DROP`). The hub frames themselves are not touched (they are exactly the hub
 pose, so edges still join seamlessly), and after a foot lifts off (or before it lands) the
 correction fades out over a few frames of the swing. This is the footskate cleanup of Kovar,
 Schreiner and Gleicher (2002) applied where the edit happens.
@@ -134,7 +135,7 @@ def pin_feet(original: Clip, snapped: Clip, contacts: np.ndarray, fixed_frames, 
     flex = knee_range([original]) if flex_range is None else np.asarray(flex_range, dtype=np.float64)
     corr = [_foot_targets(feet[:, s], fixed, gp_o[:, legs.ankle[s]], gr_o[:, legs.ankle[s]], gp_s[:, legs.ankle[s]],
                           gr_s[:, legs.ankle[s]], fade) for s in range(2)]
-    # hips lowered where a target is out of reach (legs at their rest lengths)
+    # hips lowered where a target is out of reach (a leg as straight as the capture's knees get)
     need = np.zeros(F)
     for s, (dp, _) in enumerate(corr):
         hip, knee, ankle = int(legs.hip[s]), int(legs.knee[s]), int(legs.ankle[s])
