@@ -203,8 +203,9 @@ def feet_report(path, roots=None, knee_range=None) -> dict:
 
 def slide_passed(figures: dict, knee_range=None) -> bool:
     """Whether the figures are within :data:`LIMITS` (figures a test leaves out are not
-    judged; the sliding share only over :data:`MIN_SHARE_FRAMES` planted frames or more), and the knee range within the capture's ``knee_range`` [least, most] degrees
-    (give or take :data:`KNEE_TOLERANCE`) when given."""
+    judged; the sliding share only over :data:`MIN_SHARE_FRAMES` planted frames or more), and
+    the knee range within the capture's ``knee_range`` [least, most] degrees (give or take
+    :data:`KNEE_TOLERANCE`) when given."""
     share_judged = figures.get("planted_frames", MIN_SHARE_FRAMES) >= MIN_SHARE_FRAMES
     ok = (figures["mean_cm_s"] <= LIMITS["mean_cm_s"] and figures["p95_cm_s"] <= LIMITS["p95_cm_s"]
           and (figures["sliding_share"] <= LIMITS["sliding_share"] or not share_judged)
