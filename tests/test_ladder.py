@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from runtime.crowd.checker import check_crowd, overlapping_pairs
-from runtime.crowd.planner.route import timed_route
+from runtime.crowd.planner.route import SLICE, STEP, timed_route, timed_route_steps
 from runtime.crowd.reservations import Reservations
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import plan_scenario
@@ -52,6 +52,30 @@ def test_timed_route_gives_up_when_the_goal_stays_taken():
     f = np.arange(1500)
     idx.insert(0, f, np.broadcast_to([0.0, 10.0], (1500, 2)), np.full(1500, 0.4))
     assert timed_route(np.array([[0.0, 0.0], [0.0, 10.0]]), 0, idx.at_frame, None, 0.52, 1200) is None
+
+
+def test_timed_route_is_time_sliced():
+    """The route search yields every SLICE time steps of its wavefront (so the World can spread
+    it over ticks) and returns what the whole search returns; a search that never reaches the
+    goal yields as many times as its time steps allow."""
+    idx = _walkers()
+    straight = np.array([[0.0, 0.0], [0.0, 10.0]])
+    steps = timed_route_steps(straight, 0, idx.at_frame, None, 0.52, 1200)
+    yields = 0
+    while True:
+        try:
+            next(steps)
+            yields += 1
+        except StopIteration as stop:
+            sliced = stop.value
+            break
+    whole = timed_route(straight, 0, idx.at_frame, None, 0.52, 1200)
+    assert all(np.array_equal(a, b) for a, b in zip(sliced[:2], whole[:2])) and sliced[2] == whole[2]
+    assert yields == whole[1][-1] // STEP // SLICE
+    taken = Reservations(1.6, 1500)
+    taken.insert(0, np.arange(1500), np.broadcast_to([0.0, 10.0], (1500, 2)), np.full(1500, 0.4))
+    steps = timed_route_steps(straight, 0, taken.at_frame, None, 0.52, 1200)
+    assert sum(1 for _ in steps) == (1200 // STEP) // SLICE
 
 
 def _blocked_goal_scenario():

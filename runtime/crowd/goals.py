@@ -34,7 +34,7 @@ import numpy as np
 
 from .idle import hold_tail, idle_for, idle_track, track_radius
 from .planner import Config, Goal, SegmentPlanner, Step, run_to_completion
-from .planner.route import timed_route
+from .planner.route import timed_route_steps
 from .scenario import ScenarioError
 from .tracks import Track, concat_tracks
 
@@ -317,7 +317,7 @@ class SegmentLadder:
     def _rerouted(self, cfg: Config, goal: Goal, first, n_max=None, only_if_blocked: bool = False,
                   rung: bool = True):
         """The segment planned along a route in space and time around the characters planned
-        before (:func:`~runtime.crowd.planner.route.timed_route`), leaving when the route does:
+        before (:func:`~runtime.crowd.planner.route.timed_route_steps`), leaving when the route does:
         (idle Track or None, SegmentResult, delay in s) or None. ``only_if_blocked``: None when
         a walk along the static route at ``WALK_CHECK_SPEED`` already misses everyone."""
         ctx = self.ctx
@@ -334,7 +334,8 @@ class SegmentLadder:
                                                       np.full(len(f), radius)) < 0
         hold = stays_clear if self.planner.hold is not None else None
         yield Step.WAYPOINTS
-        route = timed_route(base, cfg.frame, index.at_frame, ctx.static, radius, ctx.n_total - 1, hold)
+        route = yield from timed_route_steps(base, cfg.frame, index.at_frame, ctx.static, radius, ctx.n_total - 1,
+                                             hold)
         if route is None:
             return None
         pts, _, delay = route

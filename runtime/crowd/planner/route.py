@@ -15,18 +15,22 @@ planner uses the route's shape as the seeds' way points and its first wait as a 
 Limits (beside the code): ``CELL`` = 0.45 m lattice and ``STEP`` = 12 frames (0.4 s at 30 Hz:
 1.1 m/s straight, 1.6 m/s diagonal); the lattice covers ``CORRIDOR`` = 4 m around the static
 route; planned characters are seen at two instants per step with ``SLACK`` = 0.3 m of extra
-radius for their motion in between.
+radius for their motion in between; the search yields every ``SLICE`` time steps, so a long one
+is spread over ticks.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["timed_route", "CELL", "STEP", "CORRIDOR", "SLACK"]
+from .types import Step
+
+__all__ = ["timed_route", "timed_route_steps", "CELL", "STEP", "CORRIDOR", "SLACK", "SLICE"]
 
 CELL = 0.45         # m between lattice points
 STEP = 12           # frames per time step
 CORRIDOR = 4.0      # m of lattice around the static route
 SLACK = 0.3         # m added to the planned characters' radii for their motion within a step
+SLICE = 8           # time steps of the wavefront per yield of timed_route_steps (a few ms each)
 
 
 def _corridor(route_xz: np.ndarray, static, radius: float):
@@ -82,7 +86,20 @@ def _blocked(lo, shape, xz: np.ndarray, reach: np.ndarray) -> np.ndarray:
 
 def timed_route(route_xz, start_frame: int, occupied_at, static, radius: float, last_frame: int, hold=None):
     """A route in space and time from ``route_xz[0]`` to ``route_xz[-1]`` that keeps clear of
-    the characters planned before.
+    the characters planned before: :func:`timed_route_steps` run to its end (same arguments
+    and result)."""
+    steps = timed_route_steps(route_xz, start_frame, occupied_at, static, radius, last_frame, hold)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as stop:
+            return stop.value
+
+
+def timed_route_steps(route_xz, start_frame: int, occupied_at, static, radius: float, last_frame: int, hold=None):
+    """Generator: the route search time-sliced -- it yields :attr:`Step.WAYPOINTS` after every
+    :data:`SLICE` time steps of the wavefront (a planner step of the World's per-tick budget)
+    and returns the route.
 
     Args:
         route_xz: (n, 2) the static route (the roadmap's way points), start first.
@@ -115,6 +132,8 @@ def timed_route(route_xz, start_frame: int, occupied_at, static, radius: float, 
     k_max = (last_frame - start_frame) // STEP
     found = None
     for k in range(1, k_max + 1):
+        if k % SLICE == 0:
+            yield Step.WAYPOINTS
         f0 = start_frame + (k - 1) * STEP
         cand = _dilate(layers[-1]) & free
         for f in (f0 + STEP // 2, f0 + STEP):

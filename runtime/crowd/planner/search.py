@@ -79,6 +79,16 @@ class RandomizedSearch:
     def accept(self, cost, Frow, i, Brow, j):
         """Splice the pair (M_f[:i], M_b[j:]) and run the final tests: the spliced motion if it
         is within eps and collision-free (perhaps at another duration), else None."""
+        steps = self.accept_steps(cost, Frow, i, Brow, j)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as stop:
+                return stop.value
+
+    def accept_steps(self, cost, Frow, i, Brow, j):
+        """Generator: :meth:`accept` time-sliced -- it yields :attr:`Step.SPLICE` before each
+        other duration it tries (:meth:`_retimed`) and returns the motion or None."""
         key = (tuple(Frow[:i]), tuple(Brow[j:][Brow[j:] >= 0]))
         if key in self.rejected:
             return None
@@ -89,7 +99,7 @@ class RandomizedSearch:
         hit = self.collider.final_collision(res)
         if hit is not None and self.collider.collide is not None and self.retimes > 0:
             self.retimes -= 1
-            r2 = self._retimed(res, Frow, i, Brow, j)
+            r2 = yield from self._retimed(res, Frow, i, Brow, j)
             if r2 is not None:
                 r2.cost = float(cost)
                 return r2
@@ -106,8 +116,9 @@ class RandomizedSearch:
         return res
 
     def _retimed(self, res, Frow, i, Brow, j):
-        """The same splice at the nearest other durations (time resampling within eps_t and
-        the window): the first that is within eps and collision-free, or None."""
+        """Generator: the same splice at the nearest other durations (time resampling within
+        eps_t and the window): returns the first that is within eps and collision-free, or
+        None; yields :attr:`Step.SPLICE` before the splices and before each final test."""
         p = self.p
         m0 = len(res.root) - 1
         raw = int(sum(self.lib.nframes[e] - 1 for e in res.edges))      # source frame steps
@@ -115,9 +126,12 @@ class RandomizedSearch:
         hi_m = int(np.floor(raw / max(1 - p.eps[2], 1e-3))) - 1
         cands = [m for k in range(1, 64) for m in (m0 + p.retime_step * k, m0 - p.retime_step * k)
                  if lo_m <= m <= hi_m][:p.retime_tries]
-        rs = [r for r in self.splice(Frow, i, Brow, j, frames=cands) if r is not None and within_eps(r, p.eps)] \
-            if cands else []
+        if not cands:
+            return None
+        yield Step.SPLICE
+        rs = [r for r in self.splice(Frow, i, Brow, j, frames=cands) if r is not None and within_eps(r, p.eps)]
         for r2 in rs:
+            yield Step.SPLICE
             if self.collider.final_collision(r2) is None:
                 return r2
         return None
@@ -164,7 +178,7 @@ class RandomizedSearch:
         costp, ip, jp = self.costs(Fp, nfp, Bp, nbp)
         self.best = (float(costp[0]), Fp[0].copy(), nfp[0], Bp[0].copy(), nbp[0], int(ip[0]), int(jp[0]))
         if np.isfinite(costp[0]) and costp[0] <= eps_p:
-            res = self.accept(costp[0], Fp[0], ip[0], Bp[0], jp[0])
+            res = yield from self.accept_steps(costp[0], Fp[0], ip[0], Bp[0], jp[0])
             if res is not None:
                 self.collision_at = None
                 return res
@@ -205,7 +219,7 @@ class RandomizedSearch:
                 if not (allc[r] <= eps_p):
                     break
                 yield Step.SPLICE
-                res = self.accept(allc[r], Fa[r], ia[r], Ba[r], ja[r])
+                res = yield from self.accept_steps(allc[r], Fa[r], ia[r], Ba[r], ja[r])
                 if res is not None:
                     self.collision_at = None
                     return res
