@@ -22,6 +22,7 @@ import textwrap
 import numpy as np
 import pytest
 
+from runtime.appearance import PROPS, looks_for, srgb_to_linear
 from runtime.crowd.tracks import Track
 from runtime.pose import locked_joint_positions
 from usd_io.crowd import build_crowd_stage, save_crowd_stage
@@ -35,24 +36,39 @@ BLENDER_SCRIPT = textwrap.dedent('''
     result = {"blender": bpy.app.version_string, "stages": []}
     for path in paths:
         bpy.ops.wm.read_factory_settings(use_empty=True)
-        assert bpy.ops.wm.usd_import(filepath=path) == {"FINISHED"}, path
+        # instances as copies: scene instancing would share one armature between all characters
+        assert bpy.ops.wm.usd_import(filepath=path, support_scene_instancing=False) == {"FINISHED"}, path
         scene = bpy.context.scene
         fps_found = scene.render.fps / scene.render.fps_base
         scene.render.fps, scene.render.fps_base = 30, 1.0     # the stage's timeCodesPerSecond
         arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
         stage = {"path": path, "frame_start": scene.frame_start, "frame_end": scene.frame_end,
-                 "fps_found": fps_found, "armatures": {}}
+                 "fps_found": fps_found, "armatures": {}, "materials": {}, "props": {}}
+
+        def character(o):
+            # the importer makes every prim an object named after it: the character is the
+            # SkelRoot's empty, the child of /World/Characters
+            while o.parent is not None and o.parent.name != "Characters":
+                o = o.parent
+            return o.name
+
         for a in arms:
-            # the importer makes the SkelRoot an empty named after the prim, the Skeleton its child
-            stage["armatures"][a.parent.name if a.parent else a.name] = {
-                "bones": [b.name for b in a.pose.bones], "heads": {}}
+            stage["armatures"][character(a)] = {"bones": [b.name for b in a.pose.bones], "heads": {}}
+        for o in bpy.data.objects:
+            if o.type != "MESH" or o.parent is None:
+                continue
+            mats = stage["materials"].setdefault(character(o), {})
+            for slot in o.material_slots:
+                bsdf = slot.material.node_tree.nodes.get("Principled BSDF") if slot.material else None
+                if bsdf is not None:
+                    mats[o.name.split(".")[0]] = list(bsdf.inputs["Base Color"].default_value)[:3]
         for f in frames:
             scene.frame_set(f)
             dg = bpy.context.evaluated_depsgraph_get()
             for a in arms:
                 ae = a.evaluated_get(dg)
-                key = a.parent.name if a.parent else a.name
-                stage["armatures"][key]["heads"][str(f)] = [list(ae.matrix_world @ pb.head) for pb in ae.pose.bones]
+                stage["armatures"][character(a)]["heads"][str(f)] = [list(ae.matrix_world @ pb.head)
+                                                                     for pb in ae.pose.bones]
         result["stages"].append(stage)
     with open(out, "w") as fh:
         json.dump(result, fh)
@@ -85,7 +101,8 @@ def _tracks(graph):
 def test_blender_imports_the_baked_crowd(bpy_available, default_graph, tmp_path):
     tracks = _tracks(default_graph)
     stages = []
-    for name, kw in (("single.usdc", {}), ("clips.usdc", {"clips_per": 2, "workers": 1})):
+    for name, kw in (("instanced.usdc", {}), ("single.usdc", {"instancing": False}),
+                     ("clips.usdc", {"clips_per": 2, "workers": 1})):
         out = tmp_path / name
         save_crowd_stage(build_crowd_stage(tracks, default_graph, 30.0, out_path=out, **kw), out)
         stages.append(out)
@@ -118,6 +135,19 @@ def test_blender_imports_the_baked_crowd(bpy_available, default_graph, tmp_path)
                 d = np.linalg.norm(blender - ours[i] @ Y_UP_TO_Z_UP.T, axis=1).max()
                 worst = max(worst, d)
                 assert d < 0.01, f"{where} {name} frame {f}: joint off by {d * 100:.2f} cm"
+        # every character's parts have the materials of its look, and the looks differ
+        looks = looks_for(list(tracks))
+        colours = looks.colours()
+        assert sorted(stage["materials"]) == ["late", "second_one", "walker"], where
+        for i, name in enumerate(tracks):
+            mats = stage["materials"][name.replace(" ", "_")]
+            for k, part in enumerate(("Skin", "Shirt", "Trousers", "Shoes")):
+                np.testing.assert_allclose(mats[part], srgb_to_linear(colours[i, k]), atol=1e-4,
+                                           err_msg=f"{where} {name} {part}")
+            prop = PROPS[int(looks.prop[i])]
+            assert ("Hat" in mats, "Bag" in mats) == (prop == "hat", prop == "bag"), (where, name, sorted(mats))
+        assert len({tuple(np.round(m["Shirt"], 4)) + tuple(np.round(m["Skin"], 4))
+                    for m in stage["materials"].values()}) > 1, where
         # and the characters really are somewhere else at the end than at the start
         assert np.linalg.norm(np.array(stage["armatures"]["walker"]["heads"]["59"][0]) -
                               np.array(stage["armatures"]["walker"]["heads"]["0"][0])) > 0.05
