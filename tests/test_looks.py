@@ -146,3 +146,37 @@ def test_props_are_bound_to_their_joints(default_graph, tmp_path, instancing):
             d.append(np.linalg.norm(np.array(v).mean(axis=0) - jw))
         assert max(d) - min(d) < 1e-4 and max(d) < 0.4
     assert kinds == {"hat", "bag"}
+
+
+def test_viewer_draws_the_look_width_and_props(default_graph):
+    """The viewer's capsules take each figure's colours and width from its look, and hats and
+    bags sit on the head and in the right hand (numpy side of the character pass)."""
+    from runtime.viewer.figures import PROP_CAPSULES, FigureStyle, bone_arrays, prop_arrays
+    sk = default_graph.skeleton
+    style = FigureStyle.for_skeleton(sk)
+    names = NAMES[:40]
+    lk = looks_for(names)
+    P = style.points(_rest_positions(sk, len(names)))
+    idx = np.arange(len(names))
+    pal = lk.colours()
+    e, y = bone_arrays(P, idx, style.near, pal, lk.width)
+    y = y.reshape(len(names), len(style.near), 4)
+    np.testing.assert_allclose(y[:, :, 0], style.near.radius[None] * lk.width[:, None], rtol=1e-6)
+    np.testing.assert_array_equal(y[:, :, 1:], pal[:, style.near.part])
+    e, y = prop_arrays(P, idx, style, lk.prop, lk.prop_colours())
+    hats, bags = np.flatnonzero(lk.prop == 1), np.flatnonzero(lk.prop == 2)
+    assert len(y) == len(hats) + len(bags) and len(hats) and len(bags)
+    e = e.reshape(-1, 2, 3)
+    head, hand = sk.index("Head"), sk.index("RightHand")
+    np.testing.assert_allclose(np.linalg.norm(e[:len(hats), 0] - P[hats, head], axis=1), PROP_CAPSULES["hat"][0],
+                               rtol=1e-4)
+    np.testing.assert_allclose(np.linalg.norm(e[len(hats):, 0] - P[bags, hand], axis=1), PROP_CAPSULES["bag"][0],
+                               rtol=1e-4)
+    np.testing.assert_array_equal(y[:len(hats), 1:], lk.prop_colours()[hats])
+
+
+def _rest_positions(sk, n):
+    from runtime.motion import quat
+    from runtime.motion.fk import forward_kinematics
+    _, gp = forward_kinematics(sk, sk.offsets[0], quat.identity((sk.num_joints,)))
+    return np.repeat(gp[None], n, axis=0) + np.arange(n)[:, None, None] * np.array([1.0, 0.0, 0.0])
