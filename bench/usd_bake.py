@@ -160,9 +160,14 @@ def instancing_table(a) -> int:
     print(f"USD bake layouts: {a.frames} frames x {graph.skeleton.num_joints} joints, {a.ext}, same tracks per row")
     print(f"{'chars':>6} {'layout':>13} {'author s':>9} {'save s':>7} {'MB':>8} {'1-frame MB':>10} "
           f"{'open+trav s':>11} {'populate s':>10} {'prims':>7} {'skels':>6} {'protos':>6}")
+    build_crowd_stage(make_tracks(graph, 4, 30), graph, 30.0)           # warm-up: compiled kernels, caches
     with tempfile.TemporaryDirectory() as d:
         for n in [int(c) for c in a.counts.split(",")]:
             tracks = make_tracks(graph, n, a.frames)
+            J = graph.skeleton.num_joints
+            raw = {"translations": 12 * J, "rotations": 16 * J, "crowdweave:root": 24}
+            print(f"{n:6d} raw animation arrays: " + ", ".join(f"{k} {v * n * a.frames / 1e6:.1f} MB"
+                                                          for k, v in raw.items()))
             first = {k: Track(t.frames_a[:1], t.frames_b[:1], t.frames_t[:1], t.root[:1], 0) for k, t in tracks.items()}
             for inst in (True, False):
                 out = Path(d) / f"crowd_{n}_{inst}{a.ext}"

@@ -1,19 +1,36 @@
-"""Baked crowds as USD: one SkelRoot per character (UsdSkel cannot bind to a PointInstancer).
+"""Baked crowds as USD: one SkelRoot per character (UsdSkel cannot bind to a PointInstancer),
+sharing its Skeleton and body with every other character through an instanceable prototype
+(UsdSkel bind-state instancing), its look authored outside the prototype.
 
-Layout::
+Layout (instanced, the default)::
 
     /World                          Xform (defaultPrim)
     /World/Environment              reference to the world stage (when given; a stage in other
                                     units or Z up: an Xform converting to metres, Y up, whose
                                     child Stage holds the reference)
-    /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
+    /World/Looks/<Part>_<k>         Material (UsdPreviewSurface): palette entry k of a part
+                                    (Skin, Shirt, Trousers, Shoes, Prop), shared by characters
+    /World/Characters/<name>        SkelRoot
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
         crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
         crowdweave:frameT           float[]    crowdweave:startFrame (pose = slerp(A, B, T))
-    /World/Characters/<name>/Skel       Skeleton (SkelBindingAPI, skel:animationSource -> Anim)
-    /World/Characters/<name>/Skel/Anim  SkelAnimation (root joint translation = world position)
-    /World/Characters/<name>/Body       reference to /Prototypes/Body, the skinned capsule body
-    /Prototypes/Body                    class: the body mesh every character shares
+        crowdweave:width, :prop     the look's body width factor and prop ("none", "hat", "bag")
+        collection:<part>           the part's mesh in the instance; material:binding:collection:<part>
+                                    binds it to /World/Looks/<Part>_<k>
+        primvars:displayColor       the shirt colour (constant, inherited)
+    /World/Characters/<name>/Anim   SkelAnimation (root joint translation = world position;
+                                    blendShapeWeights: wide = width - 1)
+    /World/Characters/<name>/Rig    instanceable Xform referencing /Prototypes/Character[_hat|_bag],
+                                    skel:animationSource -> ../Anim
+    /Prototypes/Character           class: rel skel:skeleton -> Skel; Skel (Skeleton); Skin, Shirt,
+                                    Trousers, Shoes (meshes rigidly skinned, blend shape Wide);
+    /Prototypes/Character_hat, _bag the same plus Hat (bound to the head) or Bag (right hand)
+
+``instancing=False`` (``crowdweave bake --no-instancing``, and always with value clips) writes
+each character's Skeleton ``<name>/Skel`` with its ``Skel/Anim``, the body as ``<name>/Body``
+referencing the class ``/Prototypes/Body`` (the part meshes) and its prop as ``<name>/Hat`` or
+``<name>/Bag`` referencing ``/Prototypes/Hat`` or ``/Prototypes/Bag``; the look is the same.
+Looks come from the runtime (:func:`runtime.appearance.looks_for` of the seed and the names).
 
 The stage's customData holds the scenario name and the library path, so a checker can read
 a bake back (:func:`read_tracks`) without the planner. Poses come from the runtime
