@@ -180,3 +180,20 @@ def _rest_positions(sk, n):
     from runtime.motion.fk import forward_kinematics
     _, gp = forward_kinematics(sk, sk.offsets[0], quat.identity((sk.num_joints,)))
     return np.repeat(gp[None], n, axis=0) + np.arange(n)[:, None, None] * np.array([1.0, 0.0, 0.0])
+
+
+def test_two_sets_of_characters_share_the_prototypes(default_graph, tmp_path):
+    """A tiled zone's characters are baked into the crowd's stage by a second call: the
+    prototypes and materials are made once, every character is an instance of them."""
+    tracks = _tracks(default_graph, NAMES[:8])
+    first = dict(list(tracks.items())[:5])
+    second = dict(list(tracks.items())[5:])
+    stage = build_crowd_stage(first, default_graph, 30.0)
+    build_crowd_stage(second, default_graph, 30.0, stage=stage)
+    out = tmp_path / "two.usdc"
+    save_stage(stage, out)
+    assert errors(validate_stage(out)) == []
+    st = Usd.Stage.Open(str(out))
+    assert all(st.GetPrimAtPath(f"/World/Characters/{n}/Rig").IsInstance() for n in tracks)
+    assert len(st.GetPrototypes()) == len(set(looks_for(list(tracks)).prop.tolist()))
+    assert sorted(read_tracks(out)) == sorted(tracks)

@@ -23,7 +23,7 @@ Layout (instanced, the default)::
     /World/Characters/<name>/Rig    instanceable Xform referencing /Prototypes/Character[_hat|_bag],
                                     skel:animationSource -> ../Anim
     /Prototypes/Character           class: rel skel:skeleton -> Skel; Skel (Skeleton); Skin, Shirt,
-                                    Trousers, Shoes (meshes rigidly skinned, blend shape Wide);
+                                    Trousers, Shoes (meshes rigidly skinned, blend shape Wide)
     /Prototypes/Character_hat, _bag the same plus Hat (bound to the head) or Bag (right hand)
 
 ``instancing=False`` (``crowdweave bake --no-instancing``, and always with value clips) writes
@@ -127,6 +127,13 @@ def _define_prototypes(stage, skeleton, instanced: bool, sv: SkelValues) -> None
     Not instanced: ``/Prototypes/Body`` holding the part meshes, ``/Prototypes/Hat`` and
     ``/Prototypes/Bag``."""
     layer = stage.GetEditTarget().GetLayer()
+    first = Sdf.Path(prototype_path() if instanced else BODY_PROTOTYPE)
+    if layer.GetPrimAtPath(first):          # a second set of characters baked into the same stage
+        skel = layer.GetAttributeAtPath(first.AppendChild("Skel").AppendProperty("joints"))
+        if instanced and (skel is None or list(skel.default) != list(sv.joints)):
+            raise ValueError(f"{first} already holds a Skeleton with other joints: characters of one "
+                             f"stage share one skeleton")
+        return
     parts = body_parts(skeleton)
     props = {k: prop_mesh(skeleton, k) for k in PROPS[1:]}
     with Sdf.ChangeBlock():
@@ -191,7 +198,7 @@ def _look_specs(layer, root, root_path: Sdf.Path, geom: Sdf.Path, looks: Looks, 
     """Character ``i``'s look on its SkelRoot spec ``root``: one collection per part holding the
     part's mesh under ``geom`` (the instance, or the referenced body) and a collection-based
     material binding to the shared material of its colour; its shirt colour as the inherited
-    constant ``primvars:displayColor``; and ``crowdweave:look`` (width, prop)."""
+    constant ``primvars:displayColor``; ``crowdweave:width`` and ``crowdweave:prop``."""
     schemas = ["MaterialBindingAPI"]
     parts = [(PART_PRIMS[k].lower(), geom.AppendChild(PART_PRIMS[k]), f"{PART_PRIMS[k]}_{int(looks.part[i, k])}")
              for k in range(len(PARTS))]
