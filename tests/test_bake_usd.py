@@ -7,6 +7,7 @@ from pxr import Usd, UsdGeom, UsdSkel, Vt
 from runtime.appearance import looks_for
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import plan_scenario
+from runtime.motion.body import body_parts
 from usd_io.crowd import build_crowd_stage
 from usd_io.stage import save_stage
 from usd_io.validate import validate_stage
@@ -45,8 +46,13 @@ def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path, in
         rest = np.array(UsdGeom.Mesh(body).GetPointsAttr().Get())
         radial = np.array(UsdSkel.BlendShape(st.GetPrimAtPath(f"{geom}/{part}/Wide")).GetOffsetsAttr().Get())
         jr = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(0), True)])
-        reach = np.linalg.norm(rest + (width - 1.0) * radial - jr[ji], axis=1)   # at rest, widened
-        assert np.abs(np.linalg.norm(rest - jr[ji], axis=1) - reach).max() > 1e-3  # the width shows
+        # the mesh and its blend shape at the character's weight are the runtime's body with every
+        # point moved (width - 1) x its offset from its limb's axis
+        p0, _, _, _, r0 = body_parts(default_graph.skeleton)[("Skin", "Shirt", "Trousers", "Shoes").index(part)]
+        wide = rest + skq.GetAnimQuery().ComputeBlendShapeWeights(0.0)[0] * radial
+        np.testing.assert_allclose(wide, p0 + (width - 1.0) * r0, atol=1e-5)
+        reach = np.linalg.norm(wide - jr[ji], axis=1)              # each vertex's distance from its joint
+        assert np.abs(np.linalg.norm(p0 - jr[ji], axis=1) - reach).max() > 1e-3  # the width shows
         for t in (0.0, 60.0, 119.0):
             pts = _skinned(st, sq, skq, body, t)
             jw = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(t))])

@@ -1,8 +1,11 @@
 """Blender as a real DCC client of baked crowds: Blender's own USD importer
 (``bpy.ops.wm.usd_import``, bpy 4.2.0 from the package registry) reads a baked stage, single
-layer and value clips: one armature per character, the scene frame range is the stage's
-start/end, and joint world positions in Blender equal the runtime's forward kinematics within
-1 cm at sampled frames.
+layer, value clips and instanced: one armature per character, the scene frame range is the
+stage's start/end, joint world positions in Blender equal the runtime's forward kinematics within
+1 cm at sampled frames, and every part of every character has the material of its look. Outside
+instances every mesh is skinned by its character's armature with the look's width as the value
+of its ``wide`` shape key; Blender 4.2 skins no mesh inside an instance (instances are imported
+as copies, ``support_scene_instancing=False``, else one armature serves a whole prototype).
 
 Blender runs in a subprocess (bpy and pxr in one process may load two different USD
 libraries). Blender is Z-up: its importer turns the Y-up stage by +90 degrees about X, so our
@@ -25,7 +28,7 @@ import pytest
 from runtime.appearance import PROPS, looks_for, srgb_to_linear
 from runtime.crowd.tracks import Track
 from runtime.pose import locked_joint_positions
-from usd_io.crowd import build_crowd_stage, save_crowd_stage
+from usd_io.crowd import build_crowd_stage, save_crowd_stage, wide_weight
 
 pytestmark = pytest.mark.dcc
 
@@ -54,10 +57,15 @@ BLENDER_SCRIPT = textwrap.dedent('''
 
         for a in arms:
             stage["armatures"][character(a)] = {"bones": [b.name for b in a.pose.bones], "heads": {}}
+        scene.frame_set(frames[-1])         # shape key values come from their animation
         for o in bpy.data.objects:
             if o.type != "MESH" or o.parent is None:
                 continue
             mats = stage["materials"].setdefault(character(o), {})
+            keys = o.data.shape_keys
+            stage["props"].setdefault(character(o), {})[o.name.split(".")[0]] = {
+                "armature": [character(m.object) for m in o.modifiers if m.type == "ARMATURE" and m.object],
+                "wide": keys.key_blocks["wide"].value if keys and "wide" in keys.key_blocks else None}
             for slot in o.material_slots:
                 bsdf = slot.material.node_tree.nodes.get("Principled BSDF") if slot.material else None
                 if bsdf is not None:
@@ -101,7 +109,7 @@ def _tracks(graph):
 def test_blender_imports_the_baked_crowd(bpy_available, default_graph, tmp_path):
     tracks = _tracks(default_graph)
     stages = []
-    for name, kw in (("instanced.usdc", {}), ("single.usdc", {"instancing": False}),
+    for name, kw in (("instanced.usdc", {"instancing": True}), ("single.usdc", {}),
                      ("clips.usdc", {"clips_per": 2, "workers": 1})):
         out = tmp_path / name
         save_crowd_stage(build_crowd_stage(tracks, default_graph, 30.0, out_path=out, **kw), out)
@@ -146,6 +154,14 @@ def test_blender_imports_the_baked_crowd(bpy_available, default_graph, tmp_path)
                                            err_msg=f"{where} {name} {part}")
             prop = PROPS[int(looks.prop[i])]
             assert ("Hat" in mats, "Bag" in mats) == (prop == "hat", prop == "bag"), (where, name, sorted(mats))
+            meshes = stage["props"][name.replace(" ", "_")]
+            if "instanced" in where:
+                continue      # Blender 4.2 makes no Armature modifier for a mesh inside an instance
+            for part, m in meshes.items():
+                # skinned by its own character's armature; the width as the shape key's value
+                assert m["armature"] == [name.replace(" ", "_")], (where, name, part, m)
+                if part in ("Skin", "Shirt", "Trousers", "Shoes"):
+                    assert abs(m["wide"] - wide_weight(float(looks.width[i]))) < 1e-4, (where, name, part, m)
         assert len({tuple(np.round(m["Shirt"], 4)) + tuple(np.round(m["Skin"], 4))
                     for m in stage["materials"].values()}) > 1, where
         # and the characters really are somewhere else at the end than at the start

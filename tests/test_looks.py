@@ -59,7 +59,7 @@ def instanced_bake(default_graph, tmp_path_factory):
     names = NAMES[:12]
     tracks = _tracks(default_graph, names)
     out = tmp_path_factory.mktemp("looks") / "crowd.usdc"
-    save_stage(build_crowd_stage(tracks, default_graph, 30.0, out_path=out), out)
+    save_stage(build_crowd_stage(tracks, default_graph, 30.0, out_path=out, instancing=True), out)
     return out, tracks
 
 
@@ -188,8 +188,8 @@ def test_two_sets_of_characters_share_the_prototypes(default_graph, tmp_path):
     tracks = _tracks(default_graph, NAMES[:8])
     first = dict(list(tracks.items())[:5])
     second = dict(list(tracks.items())[5:])
-    stage = build_crowd_stage(first, default_graph, 30.0)
-    build_crowd_stage(second, default_graph, 30.0, stage=stage)
+    stage = build_crowd_stage(first, default_graph, 30.0, instancing=True)
+    build_crowd_stage(second, default_graph, 30.0, stage=stage, instancing=True)
     out = tmp_path / "two.usdc"
     save_stage(stage, out)
     assert errors(validate_stage(out)) == []

@@ -19,7 +19,7 @@ Layout (instanced, the default)::
                                     binds it to /World/Looks/<Part>_<k>
         primvars:displayColor       the shirt colour (constant, inherited)
     /World/Characters/<name>/Anim   SkelAnimation (root joint translation = world position;
-                                    blendShapeWeights: wide = width - 1)
+                                    blendShapeWeights: wide, 0-1 over the width range)
     /World/Characters/<name>/Rig    instanceable Xform referencing /Prototypes/Character[_hat|_bag],
                                     skel:animationSource -> ../Anim
     /Prototypes/Character           class: rel skel:skeleton -> Skel; Skel (Skeleton); Skin, Shirt,
@@ -53,7 +53,8 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from runtime.crowd.scenario import prim_name
 from runtime.crowd.tracks import Track
-from runtime.appearance import PARTS, PROP_COLOURS, PROPS, SHIRTS, SHOES, SKIN, TROUSERS, Looks, looks_for, srgb_to_linear
+from runtime.appearance import (PARTS, PROP_COLOURS, PROPS, SHIRTS, SHOES, SKIN, TROUSERS, WIDTH_RANGE, Looks,
+                                looks_for, srgb_to_linear)
 from runtime.motion.body import body_parts, prop_mesh
 
 from .clips import remove_unused_clip_dirs, write_clip_layers
@@ -78,6 +79,13 @@ def prototype_path(prop: str = "none") -> str:
     return f"{PROTOTYPES}/Character" + ("" if prop == "none" else f"_{prop}")
 
 
+def wide_weight(width: float) -> float:
+    """The ``wide`` blend shape's weight for a body width factor (0 at the narrowest, 1 at the
+    widest of :data:`runtime.appearance.WIDTH_RANGE`)."""
+    lo, hi = WIDTH_RANGE
+    return (width - lo) / (hi - lo)
+
+
 def anim_relpath(instanced: bool) -> str:
     """The SkelAnimation's path relative to the SkelRoot: ``Anim`` beside the instance, or
     ``Skel/Anim`` under the character's own Skeleton."""
@@ -92,10 +100,15 @@ def character_path(name: str) -> Sdf.Path:
 
 
 def _mesh_spec(layer, path: Sdf.Path, mesh, blend: bool = True) -> None:
-    """A rest-pose mesh rigidly skinned (one joint per point), with a ``wide`` blend shape whose
-    offsets are the points' offsets from their limb's axis (``mesh``: the arrays of
-    :func:`runtime.motion.body.body_parts`)."""
+    """A rest-pose mesh rigidly skinned (one joint per point) (``mesh``: the arrays of
+    :func:`runtime.motion.body.body_parts`). With ``blend``, its points are those of the
+    narrowest body of :data:`runtime.appearance.WIDTH_RANGE` and the ``wide`` blend shape at
+    weight 1 makes it the widest (weights stay in 0-1, the range DCC sliders keep)."""
     pts, counts, idx, joints, radial = mesh
+    if blend:
+        lo, hi = WIDTH_RANGE
+        pts = (pts + (lo - 1.0) * radial).astype(np.float32)
+        radial = ((hi - lo) * radial).astype(np.float32)
     m = prim_spec(layer, path, "Mesh", api=True)
     attribute_spec(m, "points", _T.Point3fArray, Vt.Vec3fArray.FromNumpy(pts))
     attribute_spec(m, "faceVertexCounts", _T.IntArray, Vt.IntArray.FromNumpy(counts))
@@ -260,8 +273,9 @@ def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Tr
     attribute_spec(anim, "scales", _T.Half3Array, sv.scales)
     if body and look is not None:
         attribute_spec(anim, "blendShapes", _T.TokenArray, Vt.TokenArray([WIDE]), uniform=True)
-        attribute_spec(anim, "blendShapeWeights", _T.FloatArray,
-                       Vt.FloatArray([float(look[0].width[look[1]]) - 1.0]))
+        # one time sample, not a default: Blender's importer keys a shape from samples only
+        w = attribute_spec(anim, "blendShapeWeights", _T.FloatArray)
+        w.SetTimeSample(float(track.start_frame), Vt.FloatArray([wide_weight(float(look[0].width[look[1]]))]))
     specs = [attribute_spec(anim, "translations", _T.Float3Array),
              attribute_spec(anim, "rotations", _T.QuatfArray),
              attribute_spec(root, "crowdweave:root", _T.Double3, custom=True)]
@@ -315,7 +329,7 @@ def reference_world(stage, world_path, out_path=None):
 def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None = None, stage=None,
                       num_frames: int | None = None, world_path=None, out_path=None, body: bool = True,
                       clips_per: int | None = None, workers: int | None = None, scheduler: str | None = None,
-                      foot_lock: bool = True, instancing: bool = True, look_seed: int = 0):
+                      foot_lock: bool = True, instancing: bool = False, look_seed: int = 0):
     """Author every character of ``tracks`` (name -> Track) into a new (or given) stage: one
     SkelRoot each with Skeleton, SkelAnimation and a skinned capsule-limb body (a reference to
     one prototype mesh). ``world_path`` (a world stage) is referenced as
@@ -332,10 +346,11 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     Planted feet are locked (:mod:`runtime.motion.footlock`); ``foot_lock=False`` writes the
     library's poses as they are (single-layer stages only).
 
-    ``instancing`` (default) shares one Skeleton and body per prop kind between all characters
-    as instanceable prototypes (UsdSkel bind-state instancing; value clips keep the
-    non-instanced layout); ``instancing=False`` writes a Skeleton per character. Either way
-    each character gets its look from (``look_seed``, its name) (:func:`runtime.appearance.looks_for`)."""
+    ``instancing=True`` shares one Skeleton and body per prop kind between all characters as
+    instanceable prototypes (UsdSkel bind-state instancing; not with value clips); by default
+    each character has its own Skeleton (Blender 4.2 skins no mesh inside an instance). Either
+    way each character gets its look from (``look_seed``, its name)
+    (:func:`runtime.appearance.looks_for`)."""
     n = max([len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
     if clips_per is not None:
         if out_path is None:

@@ -42,9 +42,9 @@ def configure(p):
     p.add_argument("--keep-failed", action="store_true",
                    help="when the checker fails, keep the new stage as OUT.failed.usdc (and the report as "
                         "REPORT.failed.json) beside the previous ones; by default a failed bake writes nothing")
-    p.add_argument("--no-instancing", dest="instancing", action="store_false",
-                   help="write a Skeleton and body per character instead of sharing instanceable prototypes "
-                        "(the layout value clips always use)")
+    p.add_argument("--instancing", action="store_true",
+                   help="share one Skeleton and body between the characters as instanceable prototypes (UsdSkel "
+                        "bind-state instancing; not with --clips-per; Blender 4.2 does not skin instanced bodies)")
     p.add_argument("--look-seed", type=integer(0, MAX_SEED), default=0, metavar="S",
                    help=f"seed of the characters' looks (colours, width, props; {limits(0, MAX_SEED)}; the "
                         "viewer uses 0 too)")
@@ -212,6 +212,8 @@ def run(args) -> int:
     for p in (out, report_path):
         if p is not None:
             sweep_stale_temps(p)            # left by bakes that were killed
+    if args.instancing and args.clips_per is not None:
+        raise CLIError("--instancing and --clips-per: value clips are written without instancing")
     if args.scheduler and args.clips_per is None:
         raise CLIError("--scheduler writes value-clip layers on a Dask cluster: give --clips-per N too")
     from authoring.commands.bake_tiling import run_tiling, tiling_config_path
