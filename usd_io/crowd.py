@@ -1,8 +1,8 @@
 """Baked crowds as USD: one SkelRoot per character (UsdSkel cannot bind to a PointInstancer),
-sharing its Skeleton and body with every other character through an instanceable prototype
-(UsdSkel bind-state instancing), its look authored outside the prototype.
+dressed in the character's look; optionally sharing its Skeleton and body with every other
+character through an instanceable prototype (UsdSkel bind-state instancing).
 
-Layout (instanced, the default)::
+Layout (default)::
 
     /World                          Xform (defaultPrim)
     /World/Environment              reference to the world stage (when given; a stage in other
@@ -10,26 +10,31 @@ Layout (instanced, the default)::
                                     child Stage holds the reference)
     /World/Looks/<Part>_<k>         Material (UsdPreviewSurface): palette entry k of a part
                                     (Skin, Shirt, Trousers, Shoes, Prop), shared by characters
-    /World/Characters/<name>        SkelRoot
+    /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
         crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
         crowdweave:frameT           float[]    crowdweave:startFrame (pose = slerp(A, B, T))
         crowdweave:width, :prop     the look's body width factor and prop ("none", "hat", "bag")
-        collection:<part>           the part's mesh in the instance; material:binding:collection:<part>
-                                    binds it to /World/Looks/<Part>_<k>
+        collection:<part>           the part's mesh; material:binding:collection:<part> binds it
+                                    to /World/Looks/<Part>_<k>
         primvars:displayColor       the shirt colour (constant, inherited)
-    /World/Characters/<name>/Anim   SkelAnimation (root joint translation = world position;
-                                    blendShapeWeights: wide, 0-1 over the width range)
+    /World/Characters/<name>/Skel       Skeleton (SkelBindingAPI, skel:animationSource -> Anim)
+    /World/Characters/<name>/Skel/Anim  SkelAnimation (root joint translation = world position;
+                                        blendShapeWeights: wide, 0-1 over the width range)
+    /World/Characters/<name>/Body       reference to /Prototypes/Body: Skin, Shirt, Trousers,
+                                        Shoes, meshes rigidly skinned, each with blend shape Wide
+    /World/Characters/<name>/Hat|Bag    reference to /Prototypes/Hat or /Prototypes/Bag (the prop,
+                                        bound to the head or the right hand joint)
+
+``instancing=True`` (``crowdweave bake --instancing``; not with value clips)::
+
+    /World/Characters/<name>        SkelRoot: the crowdweave attributes and the look, as above
+    /World/Characters/<name>/Anim   SkelAnimation
     /World/Characters/<name>/Rig    instanceable Xform referencing /Prototypes/Character[_hat|_bag],
                                     skel:animationSource -> ../Anim
     /Prototypes/Character           class: rel skel:skeleton -> Skel; Skel (Skeleton); Skin, Shirt,
-                                    Trousers, Shoes (meshes rigidly skinned, blend shape Wide)
-    /Prototypes/Character_hat, _bag the same plus Hat (bound to the head) or Bag (right hand)
+                                    Trousers, Shoes; Character_hat and _bag add Hat or Bag
 
-``instancing=False`` (``crowdweave bake --no-instancing``, and always with value clips) writes
-each character's Skeleton ``<name>/Skel`` with its ``Skel/Anim``, the body as ``<name>/Body``
-referencing the class ``/Prototypes/Body`` (the part meshes) and its prop as ``<name>/Hat`` or
-``<name>/Bag`` referencing ``/Prototypes/Hat`` or ``/Prototypes/Bag``; the look is the same.
 Looks come from the runtime (:func:`runtime.appearance.looks_for` of the seed and the names).
 
 The stage's customData holds the scenario name and the library path, so a checker can read
