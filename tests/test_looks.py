@@ -197,3 +197,14 @@ def test_two_sets_of_characters_share_the_prototypes(default_graph, tmp_path):
     assert all(st.GetPrimAtPath(f"/World/Characters/{n}/Rig").IsInstance() for n in tracks)
     assert len(st.GetPrototypes()) == len(set(looks_for(list(tracks)).prop.tolist()))
     assert sorted(read_tracks(out)) == sorted(tracks)
+
+
+def test_instancing_with_value_clips_is_refused_before_planning(tmp_path):
+    from pathlib import Path
+
+    from authoring.commands import CLIError
+    from authoring.commands.bake import bake_sample
+    sample = Path(__file__).resolve().parents[1] / "samples" / "meet20"
+    with pytest.raises(CLIError, match="--instancing and --clips-per"):
+        bake_sample(sample, tmp_path / "out.usdc", instancing=True, clips_per=4)
+    assert not any(tmp_path.iterdir())
