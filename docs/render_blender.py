@@ -10,7 +10,7 @@ Needs ``pip install bpy==4.2.0`` (CPython 3.11). Blender runs in a subprocess (b
 one process may load two different USD libraries). The import expands instances into copies
 (``support_scene_instancing=False``): with scene instancing Blender would share one armature
 between every character of a prototype. The camera looks down on the characters' bounding box at
-the rendered frame from the south-east.
+the rendered frame from the south-east, over a ground plane.
 """
 from __future__ import annotations
 
@@ -58,9 +58,21 @@ cam_data.lens = 35
 cam = bpy.data.objects.new("Camera", cam_data)
 scene.collection.objects.link(cam)
 d = Vector((0.55, -0.75, 0.62)).normalized()
-cam.location = centre + d * size * 1.05
+cam.location = centre + d * size * 1.2
 cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
 scene.camera = cam
+bpy.ops.mesh.primitive_plane_add(size=size * 4, location=(centre.x, centre.y, 0.0))
+ground = bpy.context.active_object
+ground_mat = bpy.data.materials.new("Ground")
+ground_mat.diffuse_color = (0.62, 0.61, 0.58, 1.0)
+ground_mat.use_nodes = True
+ground_mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.62, 0.61, 0.58, 1.0)
+ground.data.materials.append(ground_mat)
+world = bpy.data.worlds.new("World")
+world.color = (0.78, 0.83, 0.88)
+world.use_nodes = True
+world.node_tree.nodes["Background"].inputs[0].default_value = (0.78, 0.83, 0.88, 1.0)
+scene.world = world
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy = 3.0
 sun.rotation_euler = (math.radians(40), 0, math.radians(30))
@@ -73,10 +85,6 @@ if cfg["engine"] == "cycles":
     r.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = cfg["samples"]
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs[0].default_value = (0.8, 0.85, 0.9, 1.0)
-    scene.world = world
 else:
     r.engine = "BLENDER_WORKBENCH"
     sh = scene.display.shading
