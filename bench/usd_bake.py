@@ -12,6 +12,15 @@ total), the size on disk (all layers) and the speed-up against the baseline:
 
     .venv/bin/python bench/usd_bake.py                  # 1000 characters x 300 frames
     .venv/bin/python bench/usd_bake.py --characters 200 --frames 300 --clips-per 50
+
+``--instancing`` compares instead the instanced layout (one shared Skeleton and body per prop
+kind, UsdSkel bind-state instancing) with the non-instanced one (``instancing=False``) on the
+same tracks, at each of ``--counts`` characters: authoring and saving seconds, file size, the
+size of the same stage with one frame per character (what is not animation), and, each in a
+fresh process, the seconds to open the stage and traverse it (instance proxies included) and to
+populate a ``UsdSkel.Cache`` for every character:
+
+    .venv/bin/python bench/usd_bake.py --instancing --counts 100,1000 --frames 300
 """
 from __future__ import annotations
 
@@ -127,6 +136,67 @@ def run_method(a, method: str) -> dict:
     return dict(label=label, author=t1 - t0, save=t2 - t1, cpu=_cpu() - c0, mb=mb, files=nf)
 
 
+def load_times(path: str) -> dict:
+    """Seconds to open a stage and traverse every prim (instance proxies too), and to populate a
+    UsdSkel cache for every SkelRoot; run in a fresh process."""
+    from pxr import Usd
+    t0 = time.perf_counter()
+    stage = Usd.Stage.Open(path)
+    prims = sum(1 for _ in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))
+    t1 = time.perf_counter()
+    cache = UsdSkel.Cache()
+    roots = [p for p in stage.GetPrimAtPath(CHARACTERS).GetChildren()]
+    for r in roots:
+        cache.Populate(UsdSkel.Root(r), Usd.TraverseInstanceProxies())
+    skels = sum(1 for p in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)
+                and cache.GetSkelQuery(UsdSkel.Skeleton(p)))
+    t2 = time.perf_counter()
+    return dict(open=t1 - t0, populate=t2 - t1, prims=prims, skeletons=skels, prototypes=len(stage.GetPrototypes()))
+
+
+def instancing_table(a) -> int:
+    """Instanced against non-instanced bakes of the same tracks (see the module docstring)."""
+    graph = load_library("default")
+    print(f"USD bake layouts: {a.frames} frames x {graph.skeleton.num_joints} joints, {a.ext}, same tracks per row")
+    print(f"{'chars':>6} {'layout':>13} {'author s':>9} {'save s':>7} {'MB':>8} {'1-frame MB':>10} "
+          f"{'open+trav s':>11} {'populate s':>10} {'prims':>7} {'skels':>6} {'protos':>6}")
+    build_crowd_stage(make_tracks(graph, 4, 30), graph, 30.0)           # warm-up: compiled kernels, caches
+    with tempfile.TemporaryDirectory() as d:
+        for n in [int(c) for c in a.counts.split(",")]:
+            tracks = make_tracks(graph, n, a.frames)
+            J = graph.skeleton.num_joints
+            raw = {"translations": 12 * J, "rotations": 16 * J, "crowdweave:root": 24}
+            print(f"{n:6d} raw animation arrays: " + ", ".join(f"{k} {v * n * a.frames / 1e6:.1f} MB"
+                                                          for k, v in raw.items()))
+            first = {k: Track(t.frames_a[:1], t.frames_b[:1], t.frames_t[:1], t.root[:1], 0) for k, t in tracks.items()}
+            for inst in (True, False):
+                out = Path(d) / f"crowd_{n}_{inst}{a.ext}"
+                t0 = time.perf_counter()
+                stage = build_crowd_stage(tracks, graph, 30.0, instancing=inst)
+                t1 = time.perf_counter()
+                save_stage(stage, out)
+                t2 = time.perf_counter()
+                small = Path(d) / f"one_{n}_{inst}{a.ext}"
+                save_stage(build_crowd_stage(first, graph, 30.0, instancing=inst), small)
+                res = subprocess.run([sys.executable, __file__, "--load", str(out)], capture_output=True, text=True)
+                line = [ln for ln in res.stdout.splitlines() if ln.startswith("RESULT ")]
+                if res.returncode != 0 or not line:
+                    raise SystemExit(f"loading {out} failed:\n{res.stderr[-3000:]}")
+                r = json.loads(line[0][7:])
+                print(f"{n:6d} {'instanced' if inst else 'not instanced':>13} {t1 - t0:9.2f} {t2 - t1:7.2f} "
+                      f"{out.stat().st_size / 1e6:8.2f} {small.stat().st_size / 1e6:10.3f} {r['open']:11.3f} "
+                      f"{r['populate']:10.3f} {r['prims']:7d} {r['skeletons']:6d} {r['prototypes']:6d}")
+                out.unlink()
+                small.unlink()
+    print("1-frame MB: the same characters with one frame each (prims, looks, bodies: all but the animation); "
+          "open+trav and populate: a fresh process each")
+    try:
+        print(f"load average during the run: {os.getloadavg()[0]:.2f}")
+    except OSError:
+        pass
+    return 0
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--characters", type=int, default=1000)
@@ -136,7 +206,15 @@ def main(argv=None):
     p.add_argument("--workers", type=int, default=2, help="processes writing clip layers")
     p.add_argument("--method", choices=METHODS, help=argparse.SUPPRESS)   # internal: one method, JSON out
     p.add_argument("--dir", help=argparse.SUPPRESS)
+    p.add_argument("--instancing", action="store_true", help="compare the instanced and non-instanced layouts")
+    p.add_argument("--counts", default="100,1000", help="characters per row of --instancing")
+    p.add_argument("--load", help=argparse.SUPPRESS)                         # internal: load times of one stage
     a = p.parse_args(argv)
+    if a.load:
+        print("RESULT " + json.dumps(load_times(a.load)))
+        return 0
+    if a.instancing:
+        return instancing_table(a)
     if a.method:
         print("RESULT " + json.dumps(run_method(a, a.method)))
         return 0

@@ -114,11 +114,13 @@ def stage_feet(path, roots=None) -> dict:
     xf = UsdGeom.XformCache()
     out = {}
     keep = None if roots is None else {str(r) for r in roots}
+    # instanced characters keep their Skeleton in an instance: traverse the instance proxies
+    proxies = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     for prim in stage.Traverse():
         if not prim.IsA(UsdSkel.Root) or (keep is not None and str(prim.GetPath()) not in keep):
             continue
-        cache.Populate(UsdSkel.Root(prim), Usd.PrimDefaultPredicate)
-    for prim in stage.Traverse():
+        cache.Populate(UsdSkel.Root(prim), proxies)
+    for prim in Usd.PrimRange.Stage(stage, proxies):
         if not prim.IsA(UsdSkel.Skeleton):
             continue
         if keep is not None and not any(str(a) in keep for a in prim.GetPath().GetAncestorsRange()):

@@ -1,16 +1,23 @@
 """The bake (crowds out to USD): characters carry a skinned capsule-limb body that follows
 their joints, the world's geometry is referenced, and the stage validates."""
 import numpy as np
+import pytest
 from pxr import Usd, UsdGeom, UsdSkel, Vt
 
+from runtime.appearance import looks_for
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import plan_scenario
+from runtime.motion.body import body_parts
 from usd_io.crowd import build_crowd_stage
 from usd_io.stage import save_stage
 from usd_io.validate import validate_stage
 
 
-def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path):
+@pytest.mark.parametrize("instancing", [True, False])
+def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path, instancing):
+    """Every part of the body follows its bones rigidly, thickened across them by the look's
+    width (the ``wide`` blend shape) and never along them; the world is referenced; the stage
+    validates without an issue, instanced or not."""
     from pathlib import Path
     world = Path(__file__).resolve().parents[1] / "samples" / "example_world" / "world.usda"
     sc = parse_scenario({"name": "t", "duration": 4.0, "character": [
@@ -18,28 +25,55 @@ def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path):
     res = plan_scenario(sc, default_graph)
     out = tmp_path / "bake.usda"
     stage = build_crowd_stage({c.name: c.track for c in res.characters}, default_graph, 30.0, world_path=world,
-                              out_path=out)
+                              out_path=out, instancing=instancing)
     save_stage(stage, out)
     assert validate_stage(out) == []
     st = Usd.Stage.Open(str(out))
     assert any(p.IsA(UsdGeom.Gprim) for p in Usd.PrimRange(st.GetPrimAtPath("/World/Environment")))
+    width = looks_for(["a"]).width[0]
+    assert st.GetPrimAtPath("/World/Characters/a").GetAttribute("crowdweave:width").Get() == pytest.approx(width)
     cache = UsdSkel.Cache()
     cache.Populate(UsdSkel.Root(st.GetPrimAtPath("/World/Characters/a")), Usd.TraverseInstanceProxies())
-    skq = cache.GetSkelQuery(UsdSkel.Skeleton(st.GetPrimAtPath("/World/Characters/a/Skel")))
-    body = st.GetPrimAtPath("/World/Characters/a/Body")
-    sq = cache.GetSkinningQuery(body)
-    assert sq
-    ji = np.array(sq.GetJointIndicesPrimvar().Get())
-    rest = np.array(UsdGeom.Mesh(body).GetPointsAttr().Get())
-    jr = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(0), True)])
-    reach = np.linalg.norm(rest - jr[ji], axis=1)            # each vertex's distance from its joint at rest
-    for t in (0.0, 60.0, 119.0):
-        pts = Vt.Vec3fArray(UsdGeom.Mesh(body).GetPointsAttr().Get(t))
-        assert sq.ComputeSkinnedPoints(skq.ComputeSkinningTransforms(t), pts, t)
-        jw = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(t))])
-        d = np.linalg.norm(np.array(pts) - jw[ji], axis=1)
-        np.testing.assert_allclose(d, reach, atol=1e-4)     # rigidly bound: the body moves with its bones
+    geom = "/World/Characters/a/Rig" if instancing else "/World/Characters/a/Body"
+    skel_path = "/World/Characters/a/Rig/Skel" if instancing else "/World/Characters/a/Skel"
+    assert st.GetPrimAtPath(skel_path).IsInstanceProxy() == instancing
+    skq = cache.GetSkelQuery(UsdSkel.Skeleton(st.GetPrimAtPath(skel_path)))
+    for part in ("Skin", "Shirt", "Trousers", "Shoes"):
+        body = st.GetPrimAtPath(f"{geom}/{part}")
+        sq = cache.GetSkinningQuery(body)
+        assert sq and sq.HasBlendShapes()
+        ji = np.array(sq.GetJointIndicesPrimvar().Get())
+        rest = np.array(UsdGeom.Mesh(body).GetPointsAttr().Get())
+        radial = np.array(UsdSkel.BlendShape(st.GetPrimAtPath(f"{geom}/{part}/Wide")).GetOffsetsAttr().Get())
+        jr = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(0), True)])
+        # the mesh and its blend shape at the character's weight are the runtime's body with every
+        # point moved (width - 1) x its offset from its limb's axis
+        p0, _, _, _, r0 = body_parts(default_graph.skeleton)[("Skin", "Shirt", "Trousers", "Shoes").index(part)]
+        wide = rest + skq.GetAnimQuery().ComputeBlendShapeWeights(0.0)[0] * radial
+        np.testing.assert_allclose(wide, p0 + (width - 1.0) * r0, atol=1e-5)
+        reach = np.linalg.norm(wide - jr[ji], axis=1)              # each vertex's distance from its joint
+        assert np.abs(np.linalg.norm(p0 - jr[ji], axis=1) - reach).max() > 1e-3  # the width shows
+        for t in (0.0, 60.0, 119.0):
+            pts = _skinned(st, sq, skq, body, t)
+            jw = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(t))])
+            d = np.linalg.norm(pts - jw[ji], axis=1)
+            np.testing.assert_allclose(d, reach, atol=1e-4)     # rigidly bound: the body moves with its bones
     assert np.linalg.norm(jw[0, [0, 2]] - jr[0, [0, 2]]) > 1.0   # and the character did move
+
+
+def _skinned(stage, sq, skq, mesh_prim, t):
+    """Points of a skinned mesh at time ``t`` as UsdSkel computes them: blend shapes, then skinning."""
+    pts = Vt.Vec3fArray(UsdGeom.Mesh(mesh_prim).GetPointsAttr().Get(t))
+    weights = skq.GetAnimQuery().ComputeBlendShapeWeights(t)
+    sub = sq.GetBlendShapeMapper().Remap(weights)
+    assert len(sub) == 1
+    shapes = [UsdSkel.BlendShape(stage.GetPrimAtPath(p)) for p in sq.GetBlendShapeTargetsRel().GetForwardedTargets()]
+    points = np.array(pts)
+    for w, shape in zip(sub, shapes):
+        points += w * np.array(shape.GetOffsetsAttr().Get())
+    pts = Vt.Vec3fArray.FromNumpy(points.astype(np.float32))
+    assert sq.ComputeSkinnedPoints(skq.ComputeSkinningTransforms(t), pts, t)
+    return np.array(pts)
 
 
 def test_carried_box_moves_with_the_hands(default_graph):

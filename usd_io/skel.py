@@ -294,7 +294,7 @@ def _find_skeleton(stage: Usd.Stage, prim: Usd.Prim) -> UsdSkel.Skeleton:
     bound = UsdSkel.BindingAPI(prim).GetInheritedSkeleton() if prim.HasAPI(UsdSkel.BindingAPI) else None
     if bound:
         return bound
-    found = [p for p in Usd.PrimRange(prim) if p.IsA(UsdSkel.Skeleton)]
+    found = [p for p in Usd.PrimRange(prim, Usd.TraverseInstanceProxies()) if p.IsA(UsdSkel.Skeleton)]
     if len(found) != 1:
         raise StageError(f"{stage.GetRootLayer().identifier}:{prim.GetPath()}",
                          f"expected one Skeleton beneath the prim, found {len(found)}")
@@ -320,7 +320,7 @@ def joint_world_positions(stage_or_path, prim_path=None, time_codes=None, *, at_
     cache = UsdSkel.Cache()
     skel_root = UsdSkel.Root.Find(skel.GetPrim())
     if skel_root:
-        cache.Populate(skel_root, Usd.PrimDefaultPredicate)
+        cache.Populate(skel_root, Usd.TraverseInstanceProxies())     # instanced Skeletons too
     query = cache.GetSkelQuery(skel)
     if not query:
         raise StageError(f"{stage.GetRootLayer().identifier}:{skel.GetPath()}", "UsdSkel cannot query this skeleton")

@@ -42,6 +42,12 @@ def configure(p):
     p.add_argument("--keep-failed", action="store_true",
                    help="when the checker fails, keep the new stage as OUT.failed.usdc (and the report as "
                         "REPORT.failed.json) beside the previous ones; by default a failed bake writes nothing")
+    p.add_argument("--instancing", action="store_true",
+                   help="share one Skeleton and body between the characters as instanceable prototypes (UsdSkel "
+                        "bind-state instancing; not with --clips-per; Blender 4.2 does not skin instanced bodies)")
+    p.add_argument("--look-seed", type=integer(0, MAX_SEED), default=0, metavar="S",
+                   help=f"seed of the characters' looks (colours, width, props; {limits(0, MAX_SEED)}; the "
+                        "viewer uses 0 too)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="write the value-clip layers on the workers of the Dask cluster at ADDRESS "
                         "(e.g. tcp://host:8786; needs --clips-per; the layers come back to this process)")
@@ -206,6 +212,8 @@ def run(args) -> int:
     for p in (out, report_path):
         if p is not None:
             sweep_stale_temps(p)            # left by bakes that were killed
+    if args.instancing and args.clips_per is not None:
+        raise CLIError("--instancing and --clips-per: value clips are written without instancing")
     if args.scheduler and args.clips_per is None:
         raise CLIError("--scheduler writes value-clip layers on a Dask cluster: give --clips-per N too")
     from authoring.commands.bake_tiling import run_tiling, tiling_config_path
@@ -243,10 +251,11 @@ def run(args) -> int:
     try:
         stage = build_crowd_stage(tracks, graph, result.fps, num_frames=result.num_frames, world_path=world_path,
                                   out_path=out, clips_per=args.clips_per, workers=args.workers,
-                                  scheduler=args.scheduler,
+                                  scheduler=args.scheduler, instancing=args.instancing, look_seed=args.look_seed,
                                   metadata={"scenario": sc.name, "library": str(graph.path), "seed": sc.seed})
         for z in zones:   # tiled characters: SkelRoots like the crowd's, posed from the zone's patches
-            build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames)
+            build_crowd_stage(z.tracks(), z.library, result.fps, stage=stage, num_frames=result.num_frames,
+                              instancing=args.instancing and args.clips_per is None, look_seed=args.look_seed)
         write_props(stage, box_trajectories(sc, result.characters, graph, env, result.num_frames))
         if flock_report:
             from usd_io.flock import write_flock_instancer

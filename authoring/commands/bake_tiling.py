@@ -69,8 +69,8 @@ def run_tiling(args, toml: Path, out: Path, report_path: Path | None) -> int:
     tmp = None
     try:
         stage = build_crowd_stage(tracks, lib, res.fps, num_frames=num_frames, out_path=out, clips_per=args.clips_per,
-                                  workers=args.workers, scheduler=args.scheduler,
-                                  metadata={"tiling": name, "config": str(toml)})
+                                  workers=args.workers, scheduler=args.scheduler, instancing=args.instancing,
+                                  look_seed=args.look_seed, metadata={"tiling": name, "config": str(toml)})
         pause_point("writing")
         tmp = temp_path(out, suffix=".tmp" + out.suffix)
         export_layer(stage.GetRootLayer(), str(tmp))

@@ -30,8 +30,9 @@ from . import headless
 headless.ensure()                       # pyglet's backend must be chosen before pyglet.gl loads
 from pyglet import gl  # noqa: E402
 
+from ..appearance import looks_for  # noqa: E402
 from .figures import (FIGURE_CAPSULES, LOD_NEAR_PX, SHADOW_PX, FigureStyle, bone_arrays,  # noqa: E402
-                      character_palette, figure_sizes, figure_vertices)
+                      figure_sizes, figure_vertices, prop_arrays)
 from .gl import Mesh, Program, TextureBuffer, vertex_array  # noqa: E402
 from .lighting import LIGHT_DIR, SKY_HORIZON  # noqa: E402
 
@@ -67,6 +68,10 @@ class CharacterPass:
         self.t_style.upload(np.zeros((1, 4), np.float32))
         self._palette_key = None
         self._pal = None
+        self._looks = None
+        self.names_source = None       # callable -> names of the first characters (e.g. World.names)
+        self.look_seed = 0
+        self._unnamed = None
         self.points = None
         self.near_bones = 0
         self.num_figures = 0
@@ -79,12 +84,23 @@ class CharacterPass:
         self.num_bones = 0
         self.shadowed = np.zeros(0, dtype=np.int64)
 
+    def names(self, n: int) -> tuple:
+        """Names of ``n`` characters: those ``names_source`` gives for the first rows, then
+        ``#i`` for row ``i`` (rows without a name, e.g. tiled characters)."""
+        given = self.names_source() if self.names_source is not None else None
+        given = tuple(given or ())[:n]
+        if self._unnamed is None or len(self._unnamed) < n:
+            self._unnamed = tuple(f"#{i}" for i in range(max(n, 64)))
+        return given + self._unnamed[len(given):n]
+
     def palette(self, n: int, selected) -> np.ndarray:
-        """Colours (n, parts, 3) of ``n`` characters, the ``selected`` one's shirt highlighted
-        (kept until ``n`` or the selection changes)."""
-        key = (n, selected)
+        """Colours (n, parts, 3) of ``n`` characters from their looks
+        (:func:`runtime.appearance.looks_for` of their names and ``look_seed``), the
+        ``selected`` one's shirt highlighted (kept until the names or the selection change)."""
+        key = (self.names(n), self.look_seed, selected)
         if key != self._palette_key:
-            pal = character_palette(n)                       # (N, parts, 3)
+            self._looks = looks_for(key[0], self.look_seed)
+            pal = self._looks.colours()                       # (N, parts, 3)
             if selected is not None and 0 <= selected < n:
                 pal[selected, 1] = np.minimum(pal[selected, 1] * 0.3 + np.array([1.0, 0.85, 0.2]) * 0.8, 1.0)
             self._pal = pal
@@ -116,18 +132,21 @@ class CharacterPass:
         near_idx = np.flatnonzero(near)
         far_idx = np.flatnonzero(~near & visible)
         self.lod_counts = {"near": len(near_idx), "far": len(far_idx)}
-        groups = [(near_idx, st.near)] + ([] if far_figures else [(far_idx, st.far)])
+        lk = self._looks
         ends, style = [], []
-        for idx, bs in groups:
-            if not len(idx) or not len(bs):
-                continue
-            e, y = bone_arrays(P, idx, bs, pal)
+        if len(near_idx) and len(st.near):
+            e, y = bone_arrays(P, near_idx, st.near, pal, lk.width)
             ends.append(e)
             style.append(y)
-        self.near_bones = len(near_idx) * len(st.near)
+        e, y = prop_arrays(P, near_idx, st, lk.prop, lk.prop_colours())    # hats and bags, near figures
+        ends.append(e)
+        style.append(y)
+        self.near_bones = sum(len(y) for y in style)
+        if not far_figures and len(far_idx) and len(st.far):
+            e, y = bone_arrays(P, far_idx, st.far, pal, lk.width)
+            ends.append(e)
+            style.append(y)
         self.points = P
-        if not ends:
-            return np.zeros((0, 3), np.float32), np.zeros((0, 4), np.float32), (far_idx if far_figures else None)
         return np.concatenate(ends), np.concatenate(style), (far_idx if far_figures else None)
 
     def draw(self, view, proj, width: int, height: int, positions, selected=None, fog=(70.0, 220.0)) -> None:
@@ -165,7 +184,7 @@ class CharacterPass:
         if self.num_figures:
             pal = self.palette(len(self.points), selected)
             self.m_figures.upload(figure_vertices(self.points, far_idx, self.style.far, pal, view, proj, width,
-                                                  height, fog))
+                                                  height, fog, self._looks.width))
             p = self.p_figure.use()
             gl.glUniform1iv(p.loc("u_part"), FIGURE_CAPSULES, (gl.GLint * FIGURE_CAPSULES)(*self.figure_parts))
             p.set(u_light=light, u_up=up, u_fog_color=SKY_HORIZON)

@@ -11,12 +11,12 @@ a blob shadow.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 __all__ = ["FigureStyle", "BoneSet", "character_palette", "PARTS", "FIGURE_HEIGHT", "LOD_NEAR_PX", "SHADOW_PX",
-           "FIGURE_CAPSULES", "figure_sizes", "bone_arrays", "figure_vertices"]
+           "FIGURE_CAPSULES", "PROP_CAPSULES", "figure_sizes", "bone_arrays", "prop_arrays", "figure_vertices"]
 
 PARTS = ("skin", "shirt", "trousers", "shoes")
 FIGURE_HEIGHT = 1.75       # metres, for the on-screen size of a figure
@@ -49,6 +49,7 @@ class FigureStyle:
     far: BoneSet
     virtual: tuple
     num_joints: int
+    props: dict = field(default_factory=dict)   # prop kind -> (joint, joint it points away from)
 
     @classmethod
     def for_skeleton(cls, skeleton) -> "FigureStyle":
@@ -88,7 +89,10 @@ class FigureStyle:
                      (f"{side}Foot", f"{side}ToeBase", 0.042, 3),
                      (f"{side}Arm", f"{side}ForeArm", 0.05, 1), (f"{side}ForeArm", hand, 0.04, 0)]
             far += [(f"{side}UpLeg", f"{side}Foot", 0.065, 2), (f"{side}Arm", f"{side}Hand", 0.048, 1)]
-        return cls(bones(near), bones(far), tuple(virtual), J)
+        props = {"hat": (ix("Head"), ix(neck))}
+        if sk.has("RightHand") and sk.has("RightForeArm"):
+            props["bag"] = (ix("RightHand"), ix("RightForeArm"))
+        return cls(bones(near), bones(far), tuple(virtual), J, props)
 
     @classmethod
     def _generic(cls, sk) -> "FigureStyle":
@@ -145,31 +149,66 @@ def figure_sizes(P: np.ndarray, view: np.ndarray, proj: np.ndarray, height: int)
     return px, depth
 
 
-def bone_arrays(P: np.ndarray, idx: np.ndarray, bones: BoneSet, palette: np.ndarray):
+# a prop's capsule: (start, end) distances past its joint along (joint - from joint), radius
+PROP_CAPSULES = {"hat": (0.17, 0.24, 0.105), "bag": (0.08, 0.32, 0.08)}
+
+
+def prop_arrays(P: np.ndarray, idx: np.ndarray, style: FigureStyle, prop: np.ndarray, colour: np.ndarray):
+    """Capsules of the props (:data:`runtime.appearance.PROPS`: 1 a hat, 2 a bag in the right
+    hand) of figures ``idx`` that have one, as :func:`bone_arrays` returns them. ``prop`` (N,)
+    and ``colour`` (N, 3) are every figure's prop and prop colour."""
+    ends, styles = [], []
+    for code, kind in ((1, "hat"), (2, "bag")):
+        if kind not in style.props:
+            continue
+        sel = idx[prop[idx] == code]
+        if not len(sel):
+            continue
+        j, f = style.props[kind]
+        d = P[sel, j] - P[sel, f]
+        d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-6)
+        a, b, r = PROP_CAPSULES[kind]
+        e = np.empty((len(sel), 2, 3), dtype=np.float32)
+        e[:, 0] = P[sel, j] + a * d
+        e[:, 1] = P[sel, j] + b * d
+        y = np.empty((len(sel), 4), dtype=np.float32)
+        y[:, 0] = r
+        y[:, 1:] = colour[sel]
+        ends.append(e.reshape(-1, 3))
+        styles.append(y)
+    if not ends:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 4), np.float32)
+    return np.concatenate(ends), np.concatenate(styles)
+
+
+def bone_arrays(P: np.ndarray, idx: np.ndarray, bones: BoneSet, palette: np.ndarray, width: np.ndarray | None = None):
     """The capsules ``bones`` of figures ``idx`` of the points ``P`` (N, J + V, 3), for the
     capsule shaders' buffer textures: endpoints (len(idx) * len(bones) * 2, 3) float32 and
-    styles (len(idx) * len(bones), 4) = radius, rgb, figure by figure. ``palette`` is
-    :func:`character_palette` of all N figures."""
+    styles (len(idx) * len(bones), 4) = radius, rgb, figure by figure. ``palette`` (N, parts, 3)
+    holds the colours of all N figures (:meth:`runtime.appearance.Looks.colours`), ``width``
+    (N,) their body width factors (radii are scaled by them)."""
     e = np.empty((len(idx), len(bones), 2, 3), dtype=np.float32)
     Q = P[idx]
     e[:, :, 0] = Q[:, bones.a]
     e[:, :, 1] = Q[:, bones.b]
     y = np.empty((len(idx), len(bones), 4), dtype=np.float32)
-    y[:, :, 0] = bones.radius
+    y[:, :, 0] = bones.radius if width is None else bones.radius[None, :] * width[idx][:, None]
     y[:, :, 1:] = palette[idx][:, bones.part]
     return e.reshape(-1, 3), y.reshape(-1, 4)
 
 
 def figure_vertices(P: np.ndarray, idx: np.ndarray, bones: BoneSet, palette: np.ndarray, view: np.ndarray,
-                    proj: np.ndarray, width: int, height: int, fog) -> np.ndarray:
+                    proj: np.ndarray, width: int, height: int, fog, body_width: np.ndarray | None = None
+                    ) -> np.ndarray:
     """Vertex data (6 per figure, 52 floats each) of the far figures ``idx`` of the points
     ``P`` (N, J + V, 3): a screen-space quad around the figure's projected capsules ``bones``
     (:data:`FIGURE_CAPSULES` of them), and the capsules themselves in window pixels (see
     ``shaders/figure.vert``).
 
     Args:
-        palette: :func:`character_palette` of all N figures.
+        palette: the colours (N, parts, 3) of all N figures.
         fog: fog start and end (metres from the eye).
+        body_width: (N,) body width factors of all N figures (radii are scaled by them).
     """
     bs = bones
     m, k = len(idx), len(bs)
@@ -182,7 +221,8 @@ def figure_vertices(P: np.ndarray, idx: np.ndarray, bones: BoneSet, palette: np.
     py = ((V[:, 1] * proj[1, 1] + V[:, 2] * proj[1, 2]) / w + 1.0) * (0.5 * height)
     px, py, w = px.reshape(m, 2 * k), py.reshape(m, 2 * k), w.reshape(m, 2 * k)
     wm = 0.5 * (w[:, :k] + w[:, k:])                                  # (M, k)
-    r = np.maximum(bs.radius[None, :] * fy / wm, 0.6)                 # pixels
+    rad = bs.radius[None, :] if body_width is None else bs.radius[None, :] * body_width[idx][:, None]
+    r = np.maximum(rad * fy / wm, 0.6)                                # pixels
     x0 = np.minimum(px[:, :k], px[:, k:]) - r
     x1 = np.maximum(px[:, :k], px[:, k:]) + r
     y0 = np.minimum(py[:, :k], py[:, k:]) - r

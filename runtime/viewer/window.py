@@ -73,6 +73,7 @@ class Viewer:
         self.window = window
         self.camera = OrbitCamera()
         self.renderer = Renderer(scene.skeleton)
+        self.renderer.characters.names_source = lambda: getattr(scene, "names", None)   # looks by name
         self._env = None
         self._dynamic_boxes = False
         self._sync_environment()
