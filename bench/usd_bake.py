@@ -165,8 +165,8 @@ def instancing_table(a) -> int:
         for n in [int(c) for c in a.counts.split(",")]:
             tracks = make_tracks(graph, n, a.frames)
             J = graph.skeleton.num_joints
-            raw = {"translations": 12 * J, "rotations": 16 * J, "crowdweave:root": 24}
-            print(f"{n:6d} raw animation arrays: " + ", ".join(f"{k} {v * n * a.frames / 1e6:.1f} MB"
+            raw = {"root translate": 12, "rotations": 16 * J, "crowdweave:root": 24}
+            print(f"{n:6d} raw time samples: " + ", ".join(f"{k} {v * n * a.frames / 1e6:.1f} MB"
                                                           for k, v in raw.items()))
             first = {k: Track(t.frames_a[:1], t.frames_b[:1], t.frames_t[:1], t.root[:1], 0) for k, t in tracks.items()}
             for inst in (True, False):

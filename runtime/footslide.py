@@ -18,7 +18,7 @@ build keeps it in ``meta["knee_flexion_deg"]``), no knee outside it by more than
 :data:`KNEE_TOLERANCE`.
 
 Joint positions are read through ``pxr.UsdSkel`` (skeleton-space joint transforms of every
-time sample, placed by the Skeleton prim's world transform); the toe joint of each side is found
+time sample, placed by the Skeleton prim's world transform at that time); the toe joint of each side is found
 by name (``Left``/``Right`` or ``l``/``r`` with ``Toe``; the foot joint on skeletons without
 toes), the knee and hip as its ancestors. ``pxr`` is imported only when a stage is read.
 """
@@ -135,12 +135,14 @@ def stage_feet(path, roots=None) -> dict:
         times = anim.GetJointTransformTimeSamples()
         if not times:
             continue
-        world = np.array(xf.GetLocalToWorldTransform(prim), dtype=np.float64)
         rows = np.empty((len(times), 2, 4, 4))          # the joints' translation rows (row vectors)
+        world = np.empty((len(times), 4, 4))            # the Skeleton's local-to-world (it may move)
         for k, t in enumerate(times):
             rows[k] = np.asarray(q.ComputeJointSkelTransforms(Usd.TimeCode(t)))[chains, 3]
+            xf.SetTime(Usd.TimeCode(t))
+            world[k] = np.array(xf.GetLocalToWorldTransform(prim), dtype=np.float64)
         rows[..., 3] = 1.0
-        pos = (rows @ world)[..., :3]
+        pos = (rows @ world[:, None])[..., :3]
         out[str(prim.GetPath())] = (float(times[0]), pos[:, :, 0], pos[:, :, 1], signed_knee_flexion(pos))
     return out
 

@@ -45,7 +45,7 @@ def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path, in
         ji = np.array(sq.GetJointIndicesPrimvar().Get())
         rest = np.array(UsdGeom.Mesh(body).GetPointsAttr().Get())
         radial = np.array(UsdSkel.BlendShape(st.GetPrimAtPath(f"{geom}/{part}/Wide")).GetOffsetsAttr().Get())
-        jr = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(0), True)])
+        jr = np.array([np.array(m)[3, :3] for m in skq.ComputeJointSkelTransforms(0.0, True)])   # skeleton space
         # the mesh and its blend shape at the character's weight are the runtime's body with every
         # point moved (width - 1) x its offset from its limb's axis
         p0, _, _, _, r0 = body_parts(default_graph.skeleton)[("Skin", "Shirt", "Trousers", "Shoes").index(part)]
@@ -55,10 +55,11 @@ def test_bake_has_skinned_bodies_and_the_environment(default_graph, tmp_path, in
         assert np.abs(np.linalg.norm(p0 - jr[ji], axis=1) - reach).max() > 1e-3  # the width shows
         for t in (0.0, 60.0, 119.0):
             pts = _skinned(st, sq, skq, body, t)
-            jw = np.array([np.array(m)[3, :3] for m in skq.ComputeJointWorldTransforms(UsdGeom.XformCache(t))])
+            jw = np.array([np.array(m)[3, :3] for m in skq.ComputeJointSkelTransforms(t)])
             d = np.linalg.norm(pts - jw[ji], axis=1)
             np.testing.assert_allclose(d, reach, atol=1e-4)     # rigidly bound: the body moves with its bones
-    assert np.linalg.norm(jw[0, [0, 2]] - jr[0, [0, 2]]) > 1.0   # and the character did move
+    moved = joint_world_positions(st, "/World/Characters/a", [0.0, 119.0])[:, 0]
+    assert np.linalg.norm(moved[1, [0, 2]] - moved[0, [0, 2]]) > 1.0   # and the character did move
 
 
 def _skinned(stage, sq, skq, mesh_prim, t):

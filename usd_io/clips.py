@@ -6,7 +6,7 @@ A bake with ``clips_per=N`` writes, beside ``out.usdc``::
     out.usdc                            the stage: every prim, the frame arrays, clip metadata
     out.usdc.clips-<digest>/            the clip directory (assembled under a temporary name,
         chunk_0000.usdc                 then renamed: never half-written)
-        chunk_0001.usdc                 joint translations/rotations and crowdweave:root of
+        chunk_0001.usdc                 root translate ops, joint rotations, crowdweave:root of
         ...                             characters N*k .. N*k+N-1, as time samples
         manifest.usda                   the attributes the clips carry (no values)
 

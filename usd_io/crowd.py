@@ -11,6 +11,7 @@ Layout (default)::
     /World/Looks/<Part>_<k>         Material (UsdPreviewSurface): palette entry k of a part
                                     (Skin, Shirt, Trousers, Shoes, Prop), shared by characters
     /World/Characters/<name>        SkelRoot, SkelBindingAPI (skel:skeleton -> Skel)
+        xformOp:translate           float3[t]  the root joint's world position per frame
         crowdweave:root             double3[t]  (x, z, heading in degrees) per frame
         crowdweave:frameA/B         int[]      library frames shown, one entry per frame from
         crowdweave:frameT           float[]    crowdweave:startFrame (pose = slerp(A, B, T))
@@ -19,8 +20,10 @@ Layout (default)::
                                     to /World/Looks/<Part>_<k>
         primvars:displayColor       the shirt colour (constant, inherited)
     /World/Characters/<name>/Skel       Skeleton (SkelBindingAPI, skel:animationSource -> Anim)
-    /World/Characters/<name>/Skel/Anim  SkelAnimation (root joint translation = world position;
-                                        blendShapeWeights: wide, 0-1 over the width range)
+    /World/Characters/<name>/Skel/Anim  SkelAnimation (rotations per frame; translations once:
+                                        the root joint's 0, its motion is the SkelRoot's
+                                        translate; blendShapeWeights: wide, 0-1 over the width
+                                        range)
     /World/Characters/<name>/Body       reference to /Prototypes/Body: Skin, Shirt, Trousers,
                                         Shoes, meshes rigidly skinned, each with blend shape Wide
     /World/Characters/<name>/Hat|Bag    reference to /Prototypes/Hat or /Prototypes/Bag (the prop,
@@ -64,7 +67,7 @@ from runtime.motion.body import body_parts, prop_mesh
 
 from .clips import remove_unused_clip_dirs, write_clip_layers
 from .stage import check_usd_path, new_stage, open_stage, save_stage, set_default_prim, valid_prim_name
-from .timesamples import SkelValues, attribute_spec, author_tracks, prim_spec, relationship_spec
+from .timesamples import ROOT_XFORM_ORDER, SkelValues, attribute_spec, author_tracks, prim_spec, relationship_spec
 
 __all__ = ["build_crowd_stage", "write_crowd_stage", "save_crowd_stage", "read_tracks", "write_props",
            "character_path", "reference_world", "CHARACTERS"]
@@ -245,7 +248,7 @@ def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Tr
                            instanced: bool = False, look: tuple | None = None) -> list:
     """Author one character's prims and its crowdweave attributes into ``layer`` through Sdf;
     the animated attributes are declared without values. Returns their AttributeSpecs
-    (translations, rotations, crowdweave:root).
+    (the SkelRoot's ``xformOp:translate``, rotations, crowdweave:root).
 
     Not instanced: SkelRoot, Skeleton ``Skel``, SkelAnimation ``Skel/Anim``, a reference to the
     body (and its prop). Instanced: SkelRoot, SkelAnimation ``Anim`` and the instance ``Rig``
@@ -281,7 +284,9 @@ def define_character_specs(layer, root_path: Sdf.Path, sv: SkelValues, track: Tr
         # one time sample, not a default: Blender's importer keys a shape from samples only
         w = attribute_spec(anim, "blendShapeWeights", _T.FloatArray)
         w.SetTimeSample(float(track.start_frame), Vt.FloatArray([wide_weight(float(look[0].width[look[1]]))]))
-    specs = [attribute_spec(anim, "translations", _T.Float3Array),
+    attribute_spec(anim, "translations", _T.Float3Array, sv.translations)
+    attribute_spec(root, "xformOpOrder", _T.TokenArray, ROOT_XFORM_ORDER, uniform=True)
+    specs = [attribute_spec(root, "xformOp:translate", _T.Float3),
              attribute_spec(anim, "rotations", _T.QuatfArray),
              attribute_spec(root, "crowdweave:root", _T.Double3, custom=True)]
     if body and not instanced:
@@ -341,8 +346,8 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     ``/World/Environment`` (:func:`reference_world`: by a path relative to ``out_path`` when
     given, converted to metres and Y up when the world is not).
 
-    ``clips_per=N`` (requires ``out_path``) writes the time samples (joint translations and
-    rotations, ``crowdweave:root``) as value clips, one layer per N characters, in ``workers``
+    ``clips_per=N`` (requires ``out_path``) writes the time samples (the root's translate op,
+    joint rotations, ``crowdweave:root``) as value clips, one layer per N characters, in ``workers``
     parallel processes (default 2) or on the Dask cluster at ``scheduler``, into a directory beside ``out_path`` that is assembled under a
     temporary name and renamed into place (:func:`usd_io.clips.write_clip_layers`); the returned
     stage refers to it by a relative path. Save the stage to ``out_path`` (:func:`save_crowd_stage`

@@ -306,7 +306,8 @@ def joint_world_positions(stage_or_path, prim_path=None, time_codes=None, *, at_
     """Joint world positions (T, J, 3) in metres, computed by UsdSkel itself.
 
     ``prim_path`` names a Skeleton or a prim above one (SkelRoot); default the defaultPrim.
-    Uses ``UsdSkel.Cache`` -> ``SkeletonQuery.ComputeJointWorldTransforms`` at each time code
+    Uses ``UsdSkel.Cache`` -> ``SkeletonQuery.ComputeJointSkelTransforms`` times the
+    Skeleton's local-to-world (``UsdGeom.XformCache``, instance proxies included) at each time code
     (default: every integer time code from the stage's start to end, else the animation's
     time samples), so it checks what a DCC tool would see. Joints are in the Skeleton's order;
     positions are scaled by the stage's metersPerUnit (axes are left as the stage has them).
@@ -335,6 +336,9 @@ def joint_world_positions(stage_or_path, prim_path=None, time_codes=None, *, at_
     out = np.empty((len(times), len(query.GetJointOrder()), 3))
     for i, t in enumerate(times):
         xf.SetTime(t)
-        m = np.array(query.ComputeJointWorldTransforms(xf, at_rest), dtype=np.float64).reshape(-1, 4, 4)
-        out[i] = m[:, 3, :3]
+        # skeleton space, then the Skeleton prim's own local-to-world: a query of an instanced
+        # Skeleton is its prototype's, whose transform is not the instance's
+        m = np.array(query.ComputeJointSkelTransforms(t, at_rest), dtype=np.float64).reshape(-1, 4, 4)
+        w = np.array(xf.GetLocalToWorldTransform(skel.GetPrim()), dtype=np.float64)
+        out[i] = (m @ w)[:, 3, :3]
     return out * UsdGeom.GetStageMetersPerUnit(stage)

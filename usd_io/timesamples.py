@@ -1,8 +1,12 @@
 """Baked characters' animation authored at the Sdf level: prim and attribute specs, and one
 ``SetTimeSample`` per animated attribute per frame.
 
-The animated attributes of a baked character (:data:`ANIMATED`) are the SkelAnimation's joint
-``translations`` and ``rotations`` and the SkelRoot's ``crowdweave:root``. Their values come
+The animated attributes of a baked character (:data:`ANIMATED`) are the SkelRoot's
+``xformOp:translate`` (the root joint's world position), the SkelAnimation's joint ``rotations``
+and the SkelRoot's ``crowdweave:root``. The joint ``translations`` do not change over time (the
+root joint's is zero, the others are the skeleton's offsets), so they are authored once
+(:attr:`SkelValues.translations`): a time-sampled array of every joint's translation per frame
+was 40% of a bake's bytes. Their values come
 from the runtime (:func:`runtime.pose.skel_arrays`) for many characters at once, in batches of
 about :data:`POSE_BATCH_FRAMES` frames, and are converted from numpy arrays to Vt arrays; the
 per-call cost of ``SetTimeSample`` from Python is then what is left. Both the stage of a bake
@@ -23,7 +27,7 @@ from runtime.crowd.tracks import Track
 
 from .skel import joint_paths, rest_and_bind_transforms
 
-__all__ = ["SkelValues", "ANIMATED", "POSE_BATCH_FRAMES", "prim_spec", "attribute_spec", "relationship_spec",
+__all__ = ["SkelValues", "ANIMATED", "ROOT_XFORM_ORDER", "POSE_BATCH_FRAMES", "prim_spec", "attribute_spec", "relationship_spec",
            "define_animated_specs", "pose_arrays", "author_samples", "track_times", "batches", "author_tracks"]
 
 POSE_BATCH_FRAMES = 3000       # frames of poses evaluated per vectorized pass (small batches stay in cache)
@@ -32,9 +36,10 @@ _T = Sdf.ValueTypeNames
 _SKEL_API = Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"])
 
 # the time-sampled attributes of a character: (prim path relative to the SkelRoot, attribute, type, custom)
-ANIMATED = (("Skel/Anim", "translations", _T.Float3Array, False),
+ANIMATED = (("", "xformOp:translate", _T.Float3, False),
             ("Skel/Anim", "rotations", _T.QuatfArray, False),
             ("", "crowdweave:root", _T.Double3, True))
+ROOT_XFORM_ORDER = Vt.TokenArray(["xformOp:translate"])   # the SkelRoot's xformOpOrder
 
 
 @dataclass(frozen=True)
@@ -46,13 +51,17 @@ class SkelValues:
     bind: Vt.Matrix4dArray
     scales: Vt.Vec3hArray
     offsets: np.ndarray      # (J, 3) rest offsets: every non-root joint translation
+    translations: Vt.Vec3fArray  # the SkelAnimation's constant translations: root 0, the others' offsets
 
     @classmethod
     def of(cls, skeleton) -> "SkelValues":
         rest, bind = rest_and_bind_transforms(skeleton)
+        offsets = np.asarray(skeleton.offsets, dtype=np.float64)
+        still = offsets.astype(np.float32)
+        still[0] = 0.0
         return cls(Vt.TokenArray(joint_paths(skeleton)), Vt.TokenArray(list(skeleton.names)), rest, bind,
-                   Vt.Vec3hArray.FromNumpy(np.ones((skeleton.num_joints, 3), np.float16)),
-                   np.asarray(skeleton.offsets, dtype=np.float64))
+                   Vt.Vec3hArray.FromNumpy(np.ones((skeleton.num_joints, 3), np.float16)), offsets,
+                   Vt.Vec3fArray.FromNumpy(still))
 
 
 # -- specs --------------------------------------------------------------------------------------
@@ -96,7 +105,7 @@ def relationship_spec(prim: Sdf.PrimSpec, name: str, target: Sdf.Path) -> None:
 
 
 def define_animated_specs(layer: Sdf.Layer, root_path: Sdf.Path, specifier=Sdf.SpecifierOver) -> list:
-    """Only the attribute specs that carry time samples (translations, rotations,
+    """Only the attribute specs that carry time samples (the root's translate op, rotations,
     crowdweave:root), on prims of ``specifier`` (``over`` for a value-clip layer or a manifest)."""
     out = []
     for rel, name, type_name, custom in ANIMATED:
@@ -123,11 +132,11 @@ def pose_arrays(graph, tracks: list[Track], sv: SkelValues, foot_lock: bool = Tr
 
 
 def author_samples(specs: list, times: list[float], trans, quats, rootv) -> None:
-    """One ``SetTimeSample`` per attribute spec (translations, rotations, crowdweave:root) per
-    frame; call inside an ``Sdf.ChangeBlock``."""
+    """One ``SetTimeSample`` per attribute spec (the root's translate op from ``trans[:, 0]``,
+    rotations, crowdweave:root) per frame; call inside an ``Sdf.ChangeBlock``."""
     st, sr, sc = specs
     # map() drives the calls from C: no Python loop body per sample
-    deque(map(st.SetTimeSample, times, map(Vt.Vec3fArray.FromNumpy, trans)), 0)
+    deque(map(st.SetTimeSample, times, Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(trans[:, 0], np.float32))), 0)
     deque(map(sr.SetTimeSample, times, map(Vt.QuatfArray.FromNumpy, quats)), 0)
     deque(map(sc.SetTimeSample, times, Vt.Vec3dArray.FromNumpy(np.ascontiguousarray(rootv))), 0)
 
@@ -156,7 +165,7 @@ def author_tracks(layer: Sdf.Layer, items, graph, sv: SkelValues, define_specs, 
 
     Args:
         define_specs: ``f(path, track)`` -> the animated attribute specs of that character
-            (translations, rotations, crowdweave:root), e.g. :func:`define_animated_specs`.
+            (the root's translate op, rotations, crowdweave:root), e.g. :func:`define_animated_specs`.
         foot_lock: lock planted feet (:func:`pose_arrays`).
     """
     for batch in batches(items, POSE_BATCH_FRAMES):
