@@ -66,9 +66,9 @@ def test_table1_bars_ours_beside_the_papers(tmp_path):
     ddg.plot_table1(table, costs, str(out), 120.0, 100)
     img = read_png(out, 13.0, 4.4)
     ours, paper = pixels_of(img, plotting.OURS), pixels_of(img, plotting.PAPER)
-    assert ours > 500 and paper > 500
-    # the paper's bars (7200 transitions, 50 MB, 2200 s) stand taller than ours on each log axis
-    assert paper > ours * 0.8
+    assert ours > 5000                             # our bars, not only their legend swatches
+    # the paper's bars (7,200 transitions, 50 MB, 2,200 s) stand taller than these made-up ones
+    assert paper > ours
 
 
 def test_figure7_ours_beside_the_papers(tmp_path):
@@ -76,8 +76,8 @@ def test_figure7_ours_beside_the_papers(tmp_path):
     rows = [(0, 207, 26, 0.01, 0.36, True), (0, 480, 45, 0.05, 1.5, True), (0, 700, 60, 0.2, 4.0, False)]
     tiling.plot_figure7(rows, str(out))
     img = read_png(out, 10.0, 4.2)
-    assert pixels_of(img, plotting.OURS) > 150
-    assert pixels_of(img, plotting.PAPER) > 150
+    assert pixels_of(img, plotting.OURS) > 1000     # our lines and markers, not only the legend's
+    assert pixels_of(img, plotting.PAPER) > 1000    # the paper's five static rows
     assert pixels_of(img, plotting.FAIL, tol=0.2) > 5
     no_temporaries(tmp_path, ["fig7.png"])
 
