@@ -80,6 +80,9 @@ def save_atomic(fig, path: str) -> None:
     os.close(fd)
     try:
         fig.savefig(tmp, format="png")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)    # a temporary is private (0600); the picture is not
         os.replace(tmp, path)
     finally:
         plt.close(fig)

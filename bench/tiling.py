@@ -38,7 +38,7 @@ def plot_figure7(rows, path):
     ax2.plot(pp, [r[2] for r in PAPER], "v--", color=plotting.PAPER_LIGHT, label=f"{paper_label}: phase 1")
     ax2.plot(pp, [r[3] for r in PAPER], "^--", color=plotting.PAPER, label=f"{paper_label}: phase 2")
     for p, c, a, b in PAPER:
-        ax.annotate(f"{c} ch.", (p, a + b), textcoords="offset points", xytext=(0, -12), ha="center", fontsize=6.5,
+        ax.annotate(f"{c} ch.", (p, a + b), textcoords="offset points", xytext=(-6, 3), ha="right", fontsize=6.5,
                     color=plotting.PAPER)
     runs = sorted({r[0] for r in rows})
     floor = 1e-3                         # minutes: a phase that took no measurable time
@@ -54,7 +54,7 @@ def plot_figure7(rows, path):
         ax2.plot(xs, [max(r[4], floor) for r in rs], "^-", color=plotting.OURS, alpha=alpha, label=f"{ours}: phase 2")
         for r, t in zip(rs, tot):
             plotting.verdict_label(ax, r[1], t, r[5])
-            ax.annotate(f"{r[2]} ch.", (r[1], t), textcoords="offset points", xytext=(0, -12), ha="center",
+            ax.annotate(f"{r[2]} ch.", (r[1], t), textcoords="offset points", xytext=(6, -10), ha="left",
                         fontsize=6.5, color=plotting.OURS)
     for a, title in ((ax, "phase 1 + phase 2"), (ax2, "phase 1 (Algorithm 1) and phase 2 (Algorithm 2)")):
         a.set_yscale("log")
@@ -62,7 +62,7 @@ def plot_figure7(rows, path):
         a.set_ylabel("computation time (min), log scale")
         a.set_title(title, fontsize=9)
         a.grid(alpha=0.3, which="both")
-        a.margins(y=0.12)
+        a.margins(x=0.12, y=0.15)
         a.legend(fontsize=7, loc="upper left")
     fig.suptitle("Figure 7 (Kim, Hwang, Hyun and Lee 2012), static rows: computation time; "
                  "'ch.' = characters, pass/FAIL = the tiling checker", fontsize=9)

@@ -2,6 +2,7 @@
 writes a PNG of the expected size that shows our series and (where the paper prints values)
 the paper's, atomically; each bench's ``--help`` offers ``--plot``; a bad path is refused
 before the run."""
+import os
 import sys
 from pathlib import Path
 
@@ -50,6 +51,9 @@ def test_figure12_draws_our_curve(tmp_path):
     assert pixels_of(img, plotting.FAIL, tol=0.2) > 5  # eps x 0.5 failed the checker: marked
     assert pixels_of(img, plotting.PAPER) == 0         # the paper prints no values for Figure 12
     no_temporaries(tmp_path, ["fig12.png"])
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask   # as any new file, not the temporary's 0600
 
 
 def test_figure11_still_drawn_through_the_shared_helper(tmp_path):
