@@ -25,6 +25,9 @@ process) is not counted in the first row measured; its time is printed.
   tolerance eps scaled by 0.5, 1, 2, 4 and 8, the ratio to eps x 1 measured in the same run; the
   checker uses the scaled eps of each row.
 
+``--plot PNG`` draws Figure 11 to PNG and Figure 12 to the same name with ``-fig12`` (with
+``--only fig12``: Figure 12 to PNG).
+
 Figures only, no asserts. Timings are wall-clock on this machine; planning is single-threaded.
 
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/crowd_table.py [--quick] [--only NAME] [--spacings ...] [--quiet]
@@ -206,20 +209,14 @@ def table1(names, quick, quiet):
 def plot_fig11(rows, path, title):
     """Figure 11 as a picture: planning seconds per character against grid spacing (rows:
     (spacing, seconds per character, passed)), written atomically to ``path`` (PNG)."""
-    import os
-    import tempfile
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import plotting
     rows = sorted(rows)
-    fig, ax = plt.subplots(figsize=(6.0, 3.6), dpi=120)
+    fig, (ax,) = plotting.figure()
     xs = [r[0] for r in rows]
     ys = [r[1] for r in rows]
-    ax.plot(xs, ys, "o-", color="#2a6fb0", label="crowdweave (this machine)")
+    ax.plot(xs, ys, "o-", color=plotting.OURS, label="crowdweave (this machine)")
     for x, y, ok in rows:
-        ax.annotate("pass" if ok else "FAIL", (x, y), textcoords="offset points", xytext=(0, 7), ha="center",
-                    fontsize=8, color="#2a7a2a" if ok else "#b02a2a")
+        plotting.verdict_label(ax, x, y, ok)
     ax.set_xlabel("grid spacing (m)")
     ax.set_ylabel("planning time per character (s)")
     ax.set_title(title, fontsize=9)
@@ -227,16 +224,40 @@ def plot_fig11(rows, path, title):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=d)
-    os.close(fd)
-    try:
-        fig.savefig(tmp)
-        os.replace(tmp, path)
-    finally:
-        plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    plotting.save_atomic(fig, path)
+
+
+def plot_fig12(rows, path, n_characters, eps, reuse=True):
+    """Figure 12 as a picture: planning seconds per character against the adjustment tolerance
+    eps (rows: (eps scale, seconds per character, passed); ``eps`` the scenario's eps x 1 as
+    (m/s, deg/s, s/s)), the total for ``n_characters`` on the right-hand axis, ``reuse`` whether
+    characters reused each other's motions (``--no-reuse``: the paper's method); written
+    atomically to ``path`` (PNG). The paper draws this curve without printing its values, so
+    only ours is drawn."""
+    import plotting
+    rows = sorted(rows)
+    fig, (ax,) = plotting.figure(height=3.9)
+    xs = [r[0] for r in rows]
+    ys = [r[1] for r in rows]
+    how = "motions reused between same tasks" if reuse else "every character searched, as the paper"
+    ax.plot(xs, ys, "o-", color=plotting.OURS, label=f"crowdweave (this machine), {n_characters} characters,\n{how}")
+    for x, y, ok in rows:
+        plotting.verdict_label(ax, x, y, ok)
+    ax.set_xscale("log", base=2)
+    ax.set_xticks(xs)
+    ax.set_xticklabels([f"x{k:g}\n{k * eps[0] * 100:g} cm/s" for k in xs], fontsize=8)
+    ax.set_xlabel(f"adjustment tolerance eps (x1 = {eps[0] * 100:g} cm/s, {eps[1]:g} deg/s, "
+                  f"{eps[2]:.4g} s/s)", fontsize=8)
+    ax.set_ylabel("planning time per character (s)")
+    n = max(n_characters, 1)
+    right = ax.secondary_yaxis("right", functions=(lambda y: y * n, lambda y: y / n))
+    right.set_ylabel(f"total for {n_characters} characters (s)")
+    ax.set_ylim(bottom=0, top=max(ys + [0.0]) * 1.2 or 1.0)
+    ax.set_title("Figure 12 (Sung, Kovar and Gleicher 2005): synthesis time against eps, spell70", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, title="the paper prints no values for this figure", title_fontsize=7)
+    fig.tight_layout()
+    plotting.save_atomic(fig, path)
 
 
 def fig11(quick, quiet, spacings=None, plot=None):
@@ -268,7 +289,7 @@ def fig11(quick, quiet, spacings=None, plot=None):
         print(f"(Figure 11 drawn to {plot})")
 
 
-def fig12(quick, quiet):
+def fig12(quick, quiet, plot=None):
     from authoring.commands.bake import load_sample
     sc, graph, env, roadmap = load_sample(SAMPLES_DIR / "spell70", log=lambda m: None, progress=False)
     if quick:
@@ -286,6 +307,10 @@ def fig12(quick, quiet):
     ref = next(r["total"] for k, r in out if k == 1.0)
     for k, r in out:
         print(f"{k:>6g} {r['total']:>8.2f}s {r['per_char']:>10.3f}s {r['warnings']:>5} {r['total'] / ref:>9.2f}x  {verdict(r)}")
+    if plot:
+        plot_fig12([(k, r["per_char"], bool(r["passed"])) for k, r in out], plot, len(sc.characters), sc.epsilon,
+                   REUSE)
+        print(f"(Figure 12 drawn to {plot})")
 
 
 def main(argv=None) -> int:
@@ -300,7 +325,9 @@ def main(argv=None) -> int:
                     help="every character searches for its own motion (no reuse of motions between characters "
                          "with the same task): the paper's method, and the planning times its Figure 11 shows")
     ap.add_argument("--plot", default=None, metavar="PNG",
-                    help="draw Figure 11 (time per character against spacing) to this PNG file")
+                    help="draw Figure 11 (time per character against spacing) to this PNG file, and Figure 12 "
+                         "(time against eps) to the same name with -fig12 before .png; with --only fig12, "
+                         "Figure 12 to this file")
     args = ap.parse_args(argv)
     global REUSE
     REUSE = not args.no_reuse
@@ -308,6 +335,11 @@ def main(argv=None) -> int:
         spacings = tuple(float(v) for v in args.spacings.split(",")) if args.spacings else None
     except ValueError:
         ap.error(f"--spacings: expected comma-separated metres, got {args.spacings!r}")
+    if args.plot:
+        import plotting
+        why = plotting.check_png_path(args.plot)
+        if why:
+            ap.error(f"--plot: {why}")
     quiet = args.quiet or not sys.stderr.isatty()
     names = [n for _, n, _ in TABLE1]
     if args.only and args.only not in names + ["table1", "fig11", "fig12"]:
@@ -320,7 +352,10 @@ def main(argv=None) -> int:
     if args.only in (None, "fig11"):
         fig11(args.quick, quiet, spacings, args.plot)
     if args.only in (None, "fig12"):
-        fig12(args.quick, quiet)
+        plot12 = args.plot
+        if args.plot and args.only != "fig12":
+            plot12 = args.plot[:-len(".png")] + "-fig12.png"
+        fig12(args.quick, quiet, plot12)
     return 0
 
 

@@ -11,6 +11,8 @@ from one run.
    a FlockSystem walking one flock, and one walking ``--flocks`` flocks (per flock).
 3. Tick time (step + positions + velocities) for ``--flocks`` concurrent 20-agent flocks, each
    constrained to its own region (80 m L-shaped polygon in 2D, 80 x 40 x 80 m box in 3D).
+
+``--plot PNG`` draws 1 and 2 as bars, the paper's values beside ours.
 """
 from __future__ import annotations
 
@@ -29,6 +31,10 @@ from runtime.flock.region import Box, Polygon  # noqa: E402
 from runtime.flock.walk import FlockSystem  # noqa: E402
 
 FPS = 30.0
+# Lai, Chenney and Fan 2005: Table 1 (transitions, memory MB, build seconds) and section 6
+# (random walk about 7.5 ms, simulating the same group about 100 ms per virtual second), 2.4 GHz P4
+PAPER_TABLE1 = {"20-2D": (7200, 50.0, 2200.0), "20-3D": (7200, 50.0, 2400.0)}
+PAPER_WALK_MS, PAPER_SIM_MS = 7.5, 100.0
 
 
 def regions_for(dim, n, spacing=100.0, half=40.0):
@@ -87,6 +93,58 @@ def time_walk(ddg, n, seconds, regions=None, starts=None, warm=60):
     return ticks, fs.stats, outside
 
 
+def plot_table1(table, costs, path, seconds, flocks):
+    """Table 1 and section 6 of Lai, Chenney and Fan (2005) as bars, ours beside the paper's:
+    ``table`` rows (label "20-2D"/"20-3D", transitions, memory MB, build s), ``costs`` rows
+    (dim, simulate 1 flock, walk 1 flock, walk per flock of ``flocks`` batched; ms per virtual
+    second); written atomically to ``path`` (PNG). Log scales: ours and the paper's differ by
+    orders of magnitude."""
+    import numpy as np
+
+    import plotting
+    fig, axes = plotting.figure(ncols=4, width=13.0, height=4.4)
+    labels = [r[0] for r in table]
+    x = np.arange(len(labels))
+    w = 0.38
+    for k, (ax, name) in enumerate(zip(axes, ("transitions", "memory (MB)", "build time (s)"))):
+        ours = [r[1 + k] for r in table]
+        paper = [PAPER_TABLE1.get(lab, (np.nan,) * 3)[k] for lab in labels]
+        plotting.bar_labels(ax, ax.bar(x - w / 2, ours, w, color=plotting.OURS, label="crowdweave (this machine)"))
+        plotting.bar_labels(ax, ax.bar(x + w / 2, paper, w, color=plotting.PAPER, label="paper (2.4 GHz P4)"))
+        plotting.log_bars_axis(ax, ours + paper)
+        ax.set_xticks(x)
+        ax.set_xticklabels(labels)
+        ax.set_ylabel(f"{name}, log scale")
+        ax.set_title(f"Table 1: {name}", fontsize=9)
+        ax.grid(alpha=0.3, axis="y")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1, frameon=False)
+    ax = axes[3]
+    groups = [f"{d}D" for d, *_ in costs] + ["paper"]
+    gx = np.arange(len(groups))
+    w = 0.27
+    n = len(costs)
+    sim, walk1, walkn = ([c[i] for c in costs] for i in (1, 2, 3))
+    plotting.bar_labels(ax, ax.bar(gx[:n] - w, sim, w, color=plotting.OURS_LIGHT, label="ours: simulate boids, 1 flock"))
+    plotting.bar_labels(ax, ax.bar(gx[:n], walk1, w, color=plotting.OURS, label="ours: walk the DDG, 1 flock"))
+    plotting.bar_labels(ax, ax.bar(gx[:n] + w, walkn, w, color=plotting.OURS, hatch="//", edgecolor="white",
+                                   label=f"ours: walk the DDG, per flock of {flocks} batched"))
+    plotting.bar_labels(ax, ax.bar([gx[n] - w / 2], [PAPER_SIM_MS], w, color=plotting.PAPER_LIGHT,
+                                   label="paper: simulate (2.4 GHz P4)"))
+    plotting.bar_labels(ax, ax.bar([gx[n] + w / 2], [PAPER_WALK_MS], w, color=plotting.PAPER,
+                                   label="paper: random walk"))
+    plotting.log_bars_axis(ax, sim + walk1 + walkn + [PAPER_SIM_MS, PAPER_WALK_MS])
+    ax.set_xticks(gx)
+    ax.set_xticklabels(groups)
+    ax.set_ylabel("ms per virtual second per flock, log scale")
+    ax.set_title("Section 6: cost of 20-agent group motion", fontsize=9)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1, frameon=False)
+    fig.suptitle(f"Table 1 (Lai, Chenney and Fan 2005): DDGs built from {seconds:g} s of 20-agent boids, "
+                 "ours beside the paper's", fontsize=10)
+    fig.tight_layout()
+    plotting.save_atomic(fig, path)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=600.0, help="seconds of flock recorded per DDG")
@@ -95,7 +153,14 @@ def main(argv=None):
     ap.add_argument("--warm", type=int, default=300, help="untimed ticks first (initial look-ahead plans run out)")
     ap.add_argument("--workers", type=int, default=1, help="processes for the exact metric")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--plot", default=None, metavar="PNG",
+                    help="draw Table 1 and the cost per virtual second as bars, the paper's beside ours, to this PNG")
     args = ap.parse_args(argv)
+    if args.plot:
+        import plotting
+        why = plotting.check_png_path(args.plot)
+        if why:
+            ap.error(f"--plot: {why}")
 
     import os
     print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
@@ -129,6 +194,7 @@ def main(argv=None):
           f"{args.flocks} flocks advanced together, cost divided by {args.flocks})")
     print(f"{'':<7} {'sim 1':>9} {'sim batch':>10} {'walk 1':>9} {'walk batch':>11} | "
           f"{'sim1/walkN':>10} {'simN/walkN':>10} {'sim1/walk1':>10}")
+    costs = []
     for dim in (2, 3):
         p = BoidsParams(n_agents=20, dim=dim)
         # best of three runs each: the minimum is the code's cost with the least interference
@@ -138,7 +204,11 @@ def main(argv=None):
         walkn = min(time_walk(ddgs[dim], args.flocks, 2.0)[0].sum() / 2.0 / args.flocks for _ in range(3))
         print(f"{dim}D      {1e3 * sim1:>7.3f}ms {1e3 * simn:>8.3f}ms {1e3 * walk1:>7.3f}ms {1e3 * walkn:>9.4f}ms | "
               f"{sim1 / walkn:>9.0f}x {simn / walkn:>9.0f}x {sim1 / walk1:>9.1f}x")
+        costs.append((dim, 1e3 * sim1, 1e3 * walk1, 1e3 * walkn))
     print("paper: walk 7.5 ms vs simulation 100 ms per virtual second (13x); target here >= 200x")
+    if args.plot:
+        plot_table1([r[:4] for r in rows], costs, args.plot, args.seconds, args.flocks)
+        print(f"(Table 1 and the cost per virtual second drawn to {args.plot})")
 
     print(f"\nTick time, {args.flocks} concurrent 20-agent flocks, each in its own region "
           f"(step + positions + velocities, {args.ticks} ticks after {args.warm} untimed ticks)")
