@@ -65,18 +65,24 @@ def make_viewer(scene: SceneView, headless: bool | None = False, width: int = 12
 
 def run_viewer(scene: SceneView, headless: bool | None = False, seconds: float | None = None, screenshot=None,
                width: int = 1280, height: int = 720, max_frames: int | None = None, min_frames: int = 1,
-               camera=None, **kwargs):
+               camera=None, record=None, **kwargs):
     """Open the viewer on ``scene`` and run until the window closes, or for ``seconds`` /
     ``max_frames``; save the last frame to ``screenshot`` (PNG) if given.
 
     ``camera`` (optional) is a callable ``f(viewer.camera)`` to position the camera before the
-    first frame. Returns a :class:`~runtime.viewer.window.FrameInfo`: frame count, fps, the
-    framebuffer size, the view-projection matrix and the joint positions of the last frame (so a
-    caller can project world points into the screenshot with :func:`project`)."""
+    first frame. ``record`` (a :class:`~runtime.viewer.record.GifRecorder`) collects frames
+    for an animated GIF, saved when the loop ends. Returns a
+    :class:`~runtime.viewer.window.FrameInfo`: frame count, fps, the framebuffer size, the
+    view-projection matrix and the joint positions of the last frame (so a caller can project
+    world points into the screenshot with :func:`project`)."""
     viewer = make_viewer(scene, headless=headless, width=width, height=height, **kwargs)
     try:
         if camera is not None:
             camera(viewer.camera)
-        return viewer.run(seconds=seconds, screenshot=screenshot, max_frames=max_frames, min_frames=min_frames)
+        info = viewer.run(seconds=seconds, screenshot=screenshot, max_frames=max_frames, min_frames=min_frames,
+                          record=record)
+        if record is not None:
+            record.save()
+        return info
     finally:
         viewer.close()

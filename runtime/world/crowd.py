@@ -243,6 +243,11 @@ class CrowdSystem:
             return PendingGoal(Goal(r[:2] + 0.45 * fwd, float(r[2]), self.pose_nodes("stand")), "stand")
         if kind == "pick_up":
             m = self.marker(marker, "box")
+            placed = self.box_place.get(marker)
+            if placed is not None:     # put down somewhere else since: stand where its carrier stood
+                h = float(placed[2])
+                at = np.array(placed[:2], float) - BOX_REACH * np.array([math.sin(h), math.cos(h)])
+                return PendingGoal(Goal(at, h, self.pose_nodes("carry")), "pick_up", marker)
             fwd = np.array([math.sin(m.heading), math.cos(m.heading)])
             return PendingGoal(Goal(m.position + BOX_REACH * fwd, m.heading + math.pi, self.pose_nodes("carry")),
                                "pick_up", marker)
