@@ -11,7 +11,7 @@ The viewer reads a scene only through :class:`runtime.view.SceneView` (``environ
 ``skeleton``, ``joint_positions()``, ``step(dt)``) and the optional members of
 :class:`runtime.view.InteractiveSceneView` (``dt``, ``obstacle_heights``,
 ``flock_positions()``, ``box_positions()``, ``hud_stats()``, ``select(i)``,
-``command_go_to(i, xz)``), each used when the scene has it. A :class:`runtime.World`
+``command_go_to(i, xz)``, ``landmarks()``), each used when the scene has it. A :class:`runtime.World`
 provides them all; :class:`TrackScene` is a stand-in. The skeleton's joint names choose the
 figure style (CMU names give shaded capsule-limbed people); joint 0 of each character is its
 root (picking, shadows, selection ring); movable boxes from ``box_positions()`` (0.4 m crates)
@@ -20,7 +20,8 @@ frame time times the time scale, and ``dt`` for a single step.
 
 Modules
 -------
-``window`` (the frame loop and input), ``camera`` (numpy), ``render`` (one frame) with its
+``window`` (the frame loop and input), ``camera`` (numpy; the views), ``record`` (an animated
+GIF of the frames), ``render`` (one frame) with its
 passes ``backdrop`` and ``characters``, ``figures`` and ``meshes`` (geometry, numpy),
 ``lighting`` (colours), ``gl`` (GL wrappers; GLSL in ``shaders/``), ``hud``, ``headless``
 (backend choice), ``scene`` (:class:`TrackScene`), ``baseline`` (the benchmark's references).
@@ -44,6 +45,13 @@ Input: left click selects the character whose projected root is nearest the poin
 ground calls ``scene.command_go_to(selected, xz)`` (ray-plane intersection with y = 0); Space
 pauses, '.' steps one tick, +/- double/halve the time scale, F follows the selection, H hides the
 HUD, Esc quits.
+
+Views (:func:`~runtime.viewer.camera.look_at_landmark`, from the scene's ``landmarks()``): the
+opening view is the scene's "plaza" landmark (a World with ambient people: their busiest
+stretch) seen from 21 m at 24 degrees, where a person in the middle of a 1280 x 720 view is
+about 50 px tall; without one, the whole environment. Keys: P back to that view, T the tiling
+zone ("tiled"), B the flocks where they are now ("flocks"), R follow a random character (F
+stops following); a key whose place the scene lacks does nothing.
 """
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ from pyglet.window import key, mouse  # noqa: E402
 
 from ..assets import atomic_write_bytes  # noqa: E402
 from ..view import SceneView  # noqa: E402
-from .camera import OrbitCamera  # noqa: E402
+from .camera import OrbitCamera, look_at_landmark  # noqa: E402
 from .hud import Hud, format_stats  # noqa: E402
 from .render import Renderer  # noqa: E402
 
@@ -31,9 +31,6 @@ __all__ = ["Viewer", "FrameInfo"]
 
 PICK_RADIUS_PX = 40.0
 DRAG_THRESHOLD_PX = 4
-# the views the keys jump to: (distance m, pitch rad) -- the opening view ("plaza") shows a person
-# about 50 px tall at 720 px high in the middle of the view
-VIEWS = {"plaza": (26.0, 0.45), "follow": (9.0, 0.35)}
 
 
 @dataclass
@@ -199,26 +196,15 @@ class Viewer:
                 return False
             self.select(int(self._rng.integers(len(P))))
             root = P[self.selected, 0]
-            cam.target = np.array([root[0], 0.9, root[2]])
-            cam.distance, cam.pitch = VIEWS["follow"]
+            look_at_landmark(cam, name, (root[0], 0.0, root[2], 1.0))
             self.follow = True
             self.view_name = name
             return True
         spot = self.landmarks().get(name)
         if spot is None:
             return False
-        x, y, z, r = (float(v) for v in spot)
+        look_at_landmark(cam, name, spot)
         self.follow = False
-        if name == "plaza":
-            cam.target = np.array([x, 0.9, z])
-            cam.distance, cam.pitch = VIEWS["plaza"]
-        elif name == "flocks":
-            cam.target = np.array([x, y, z])
-            cam.distance, cam.pitch = float(np.clip(2.2 * r + 12.0, 15.0, cam.max_distance)), 0.3
-        else:
-            cam.target = np.array([x, y, z])
-            cam.distance = float(np.clip(1.2 * r / np.tan(0.5 * cam.fov_y), 8.0, cam.max_distance))
-            cam.pitch = 0.6
         self.view_name = name
         return True
 

@@ -41,6 +41,7 @@ WALK_FAST, WALK_SLOW = 1.7, 0.8       # m/s: the arrival window of a walk of d m
 WINDOW_LEAD, WINDOW_SLACK = 1.0, 8.0  # [now + lead + d / fast, now + lead + slack + d / slow]
 TIMEOUT = 45.0                        # s without an event for a busy person: given up, ready again
 CLEARANCE = 0.9                       # m from obstacles of a spot someone stands on
+SDF_RESOLUTION = 0.2                  # m: the distance grid the clearance tests sample
 PERSONAL = 1.3                        # m a stroll's end keeps from where anyone is now
 # strolls: (distance m, bearing rad relative to the facing) -- a few repeated tasks, so the World's
 # motion cache (Sung, Kovar and Gleicher 2005 crowds repeat tasks) places one searched motion for
@@ -51,10 +52,12 @@ STROLL_WEIGHT = np.where(np.arange(len(STROLLS)) < 6, 4.0, 1.0)
 STROLL_LINGER = (4.0, 14.0)           # s standing after a stroll
 
 
-def free_spots(env, area, spacing: float, seed: int = 0, exclude=(), clearance: float = CLEARANCE) -> np.ndarray:
+def free_spots(env, area, spacing: float, seed: int = 0, exclude=(), clearance: float = CLEARANCE,
+               sdf=None) -> np.ndarray:
     """Points (K, 2) of a jittered grid over ``area`` = (x0, z0, x1, z1), ``spacing`` metres
-    apart, at least ``clearance`` from every obstacle of ``env`` and outside every rectangle
-    of ``exclude``; in a seeded random order."""
+    apart, at least ``clearance`` from every obstacle of ``env`` (through ``sdf``, its signed
+    distance grid, when given) and outside every rectangle of ``exclude``; in a seeded random
+    order."""
     x0, z0, x1, z1 = area
     rng = np.random.default_rng(seed)
     gx, gz = np.meshgrid(np.arange(x0 + spacing / 2, x1, spacing), np.arange(z0 + spacing / 2, z1, spacing))
@@ -64,7 +67,7 @@ def free_spots(env, area, spacing: float, seed: int = 0, exclude=(), clearance: 
     for ex0, ez0, ex1, ez1 in exclude:
         ok &= ~((pts[:, 0] > ex0) & (pts[:, 0] < ex1) & (pts[:, 1] > ez0) & (pts[:, 1] < ez1))
     if env is not None and env.num_obstacles:
-        ok[ok] = env.sdf(0.1, 2.0).sample(pts[ok]) > clearance
+        ok[ok] = (sdf if sdf is not None else env.sdf(SDF_RESOLUTION, 2.0)).sample(pts[ok]) > clearance
     pts = pts[ok]
     return pts[rng.permutation(len(pts))]
 
@@ -98,7 +101,7 @@ class AmbientLife:
             raise ValueError(f"count must be a non-negative integer, got {count!r}")
         env = world.env
         self.world, self.env = world, env
-        self.sdf = env.sdf(0.1, 2.0) if env is not None and env.num_obstacles else None
+        self.sdf = env.sdf(SDF_RESOLUTION, 2.0) if env is not None and env.num_obstacles else None
         self.rng = np.random.default_rng(seed)
         self.area = tuple(float(v) for v in (area if area is not None else
                                              (env.bounds(0.0) if env is not None else (-20, -20, 20, 20))))
@@ -116,12 +119,12 @@ class AmbientLife:
         self.box_taken = np.zeros(len(box_paths), bool)
         self.box_home = self.box_xz.copy()
         # points of interest: spots in the open, and people-sized places by the markers
-        spots = free_spots(env, self.area, 2.0, seed, self.exclude)
+        spots = free_spots(env, self.area, 2.0, seed, self.exclude, sdf=self.sdf)
         self.spots = spots
         self.spot_taken = np.zeros(len(spots), bool)
         # spawn on a coarser grid of the same free ground, clear of everyone there already
         starts = free_spots(env, self.area, 1.9, seed + 1, self.exclude + [r for r, _ in self.keep_clear],
-                            clearance=1.0)
+                            clearance=1.0, sdf=self.sdf)
         others = world.root_states()[:, :2] if len(world.names) else np.zeros((0, 2))
         if len(others):
             d = np.linalg.norm(starts[:, None] - others[None], axis=-1).min(1)
@@ -167,9 +170,8 @@ class AmbientLife:
             m = markers[self.seats[j]]
             pos[k], heading[k], seated[k] = m.position, m.heading, True
             self.seat_taken[j], self.seat_of[k] = True, j
-        if len(starts):               # nobody starts next to a bench someone sits on
-            near = np.linalg.norm(starts[:, None] - pos[None, :n_seat], axis=-1).min(1) if n_seat else np.inf
-            starts = starts[near > 1.6]
+        if len(starts) and n_seat:    # nobody starts next to a bench someone sits on
+            starts = starts[np.linalg.norm(starts[:, None] - pos[None, :n_seat], axis=-1).min(1) > 1.6]
         i, used = n_seat, np.zeros(len(starts), bool)
         for c in range(len(starts)):            # groups round every few start spots
             if i >= n_seat + count // 4 or count - i < 3:
