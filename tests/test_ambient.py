@@ -169,3 +169,24 @@ def test_viewer_opening_view_and_view_keys_headless(default_graph):
     assert np.linalg.norm(np.array(fol["target"])[[0, 2]] - np.array(fol["root"])[[0, 2]]) < 1.0
     px_, _, pz, _ = lm["plaza"]
     assert np.allclose(np.array(out["plaza"]["target"])[[0, 2]], [px_, pz]) and not out["plaza"]["follow"]
+
+
+def test_gif_recorder_keeps_frames_at_its_rate_and_writes_an_animated_gif(tmp_path):
+    from PIL import Image
+
+    from runtime.viewer.record import GifRecorder
+    rec = GifRecorder(tmp_path / "clip.gif", fps=10.0, width=64, max_frames=5)
+    kept = 0
+    for k in range(40):                      # frames drawn every 0.03 s for 1.2 s
+        t = 0.03 * k
+        if rec.due(t):
+            img = np.zeros((36, 128, 3), np.uint8)
+            img[:, (4 * k) % 128] = 255         # a moving bar
+            rec.add(img, t)
+            kept += 1
+    assert kept == 5                          # 10 a second, up to max_frames
+    rec.save()
+    with Image.open(tmp_path / "clip.gif") as g:
+        assert g.n_frames == 5 and g.size == (64, 18) and g.info["duration"] == 100
+    with pytest.raises(ValueError, match="no frames"):
+        GifRecorder(tmp_path / "empty.gif").save()

@@ -371,34 +371,37 @@ class AmbientLife:
         self._busy(i, WALK, now, win)
         return True
 
+    def _nearest(self, xz, taken, p) -> int:
+        """The nearest marker of ``xz`` (K, 2) not ``taken``, outside the kept-clear rectangles
+        and within 25 m of ``p``; -1 when there is none."""
+        if not len(xz):
+            return -1
+        d = np.linalg.norm(xz - p, axis=1)
+        cand = np.flatnonzero(~taken & (d < 25.0) & self._unreserved(xz))
+        return int(cand[np.argmin(d[cand])]) if len(cand) else -1
+
     def _try_sit(self, i: int, now: float, pos) -> bool:
-        if not len(self.seats):
-            return False
-        d = np.linalg.norm(self.seat_xz - pos[i, :2], axis=1)
-        cand = np.flatnonzero(~self.seat_taken & (d < 25.0) & self._unreserved(self.seat_xz))
-        if not len(cand):
-            return False
-        k = int(cand[np.argmin(d[cand])])
-        self.seat_taken[k] = True
-        self.seat_of[i] = k
-        self.world.sit(self.names[i], self.seats[k])
-        self.stats["sits"] += 1
-        self._busy(i, SIT, now)
-        return True
+        """Sit on the nearest free bench seat (False when none is in reach)."""
+        return self._claim(i, now, pos, "sits")
 
     def _try_carry(self, i: int, now: float, pos) -> bool:
-        if len(self.boxes) < 2:
+        """Pick up the nearest free box (its carrying on is the picked_up event's)."""
+        return len(self.boxes) >= 2 and self._claim(i, now, pos, "carries")
+
+    def _claim(self, i: int, now: float, pos, what: str) -> bool:
+        if what == "sits":
+            xz, taken, held, paths, command, phase = (self.seat_xz, self.seat_taken, self.seat_of, self.seats,
+                                                      self.world.sit, SIT)
+        else:
+            xz, taken, held, paths, command, phase = (self.box_xz, self.box_taken, self.box_of, self.boxes,
+                                                      self.world.pick_up, FETCH)
+        k = self._nearest(xz, taken, pos[i, :2])
+        if k < 0:
             return False
-        d = np.linalg.norm(self.box_xz - pos[i, :2], axis=1)
-        cand = np.flatnonzero(~self.box_taken & (d < 25.0) & self._unreserved(self.box_xz))
-        if not len(cand):
-            return False
-        k = int(cand[np.argmin(d[cand])])
-        self.box_taken[k] = True
-        self.box_of[i] = k
-        self.world.pick_up(self.names[i], self.boxes[k])
-        self.stats["carries"] += 1
-        self._busy(i, FETCH, now)
+        taken[k], held[i] = True, k
+        command(self.names[i], paths[k])
+        self.stats[what] += 1
+        self._busy(i, phase, now)
         return True
 
     def _try_meet(self, i: int, now: float, pos) -> bool:
