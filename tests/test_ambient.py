@@ -34,7 +34,7 @@ def test_ambient_table_is_checked(default_graph):
     env = read_world(PLAZA / "world.usda")
     data = tomllib.loads((PLAZA / "scenario.toml").read_text())
     sc = parse_scenario(data, str(PLAZA / "scenario.toml"), env=env)
-    assert sc.ambient.count == 300 and sc.ambient.bounds == (-42.0, -34.0, 42.0, 34.0)
+    assert sc.ambient.count == 300 and sc.ambient.bounds == (-34.0, -30.0, 34.0, 30.0)
     for bad, where in (({"count": 300, "colour": 1}, "colour"), ({"count": -1}, "count"),
                        ({"count": 3, "region": "/World/Regions/nowhere"}, "region"),
                        ({"count": 3, "linger": [5.0, 1.0]}, "linger")):
@@ -104,14 +104,21 @@ def test_opening_view_shows_people_at_least_30_px_tall(plaza):
 
 
 @pytest.mark.slow
-def test_after_20_seconds_most_people_have_had_goals_and_all_are_alive(plaza):
-    sc, w, life = plaza
-    for _ in range(600):
+def test_after_5_seconds_most_people_have_had_goals_and_all_are_alive(default_graph):
+    """The plaza with its 300 ambient people deciding over the first 2 s (planning unbounded,
+    so the result does not depend on the machine): after 5 s most have been given a goal, the
+    first have arrived, nobody is gone and nobody stands in anybody."""
+    from authoring.commands.bake import load_sample
+    from runtime.world import World
+    sc, graph, env, roadmap = load_sample(PLAZA, log=lambda *a: None, progress=False)
+    w = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=1e6)
+    w.apply_scenario(sc)
+    life = w.add_scenario_ambient(sc, start_within=2.0)
+    for _ in range(150):
         w.tick()
     assert len(w.names) >= 300 + len(sc.characters)
     assert (life.goals_had > 0).mean() > 0.5, life.stats
-    assert life.stats["arrived"] > 50, life.stats
-    # nobody stands in anybody: the World's plans never collide
+    assert life.stats["arrived"] > 20, life.stats
     xz = w.root_states()[:, :2]
     d = np.linalg.norm(xz[:, None] - xz[None], axis=-1)
     np.fill_diagonal(d, np.inf)

@@ -2,9 +2,9 @@
 
 :class:`AmbientLife` spawns ``count`` people on free ground and keeps giving them goals through
 the public World API only (``go_to`` with an arrival window, ``sit`` / ``stand``, ``pick_up`` /
-``put_down``, ``meet``): they stroll to points of interest (spots in front of stalls, round the
-fountain, at the entrances, in the open) and linger there, sit on free benches for a while then
-stand and leave, carry boxes from one stall to another, and meet in pairs and threes.
+``put_down``, ``meet``): they stroll about and walk to points of interest (free spots of the
+square) and linger there, sit on free benches for a while then stand and leave, carry boxes from
+where one lies to beside another's first place, and meet in pairs and threes.
 
 Per tick the work is bounded: the people due for a decision are found with one vectorized
 comparison over their timers, and at most ``per_tick`` of them (fewer when the World's planning

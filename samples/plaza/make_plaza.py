@@ -16,14 +16,16 @@ def marker(stage, path, role, x, z, heading_deg):
 
 
 ZONE = (14.0, 24.0, -5.0, 5.0)     # x0, x1, z0, z1 of the tiled interaction zone's fence
-AMBIENT = (-42.0, -34.0, 42.0, 34.0)   # x0, z0, x1, z1 where the ambient people walk
+# where the ambient people walk: inside the sky region's bounds, with no obstacle added, so the
+# square's roadmap (and with it the bake of the named characters) stays what it was
+AMBIENT = (-34.0, -30.0, 34.0, 30.0)   # x0, z0, x1, z1
 AMBIENT_COUNT = 300
-STALL_X = (-30.0, -18.0, -6.0, 6.0, 18.0, 30.0)   # market stalls along the north and south edges
-STALL_Z = 27.0
+STALL_X = (-27.0, -16.0, -5.0, 6.0, 17.0, 28.0)   # market pitches (a crate each) along the north and south
+STALL_Z = 24.0
 # benches of three seats (x, z, heading the sitters face, degrees)
 BENCHES = [(-24.0, -8.0, 90.0), (-24.0, 8.0, 90.0), (24.0, -16.0, -90.0), (24.0, 16.0, -90.0),
            (-8.0, -18.0, 0.0), (8.0, 18.0, 180.0), (-8.0, 18.0, 180.0), (8.0, -18.0, 0.0),
-           (-36.0, 0.0, 90.0), (36.0, 0.0, -90.0)]
+           (-30.0, 0.0, 90.0), (30.0, 0.0, -90.0)]
 
 
 def region(stage, path, x0, z0, x1, z1):
@@ -69,13 +71,6 @@ def world():
         c.CreateSizeAttr(1.0)
         UsdGeom.Xformable(c).AddTranslateOp().Set(Gf.Vec3d(cx, 0.3, cz))
         UsdGeom.Xformable(c).AddScaleOp().Set(Gf.Vec3f(sx, 0.6, sz))
-    # market stalls: a counter each, with a box in front of it (people carry boxes between them)
-    for i, x in enumerate(STALL_X):
-        for side, z in (("n", STALL_Z), ("s", -STALL_Z)):
-            c = UsdGeom.Cube.Define(stage, f"/World/Obstacles/stall_{side}{i}")
-            c.CreateSizeAttr(1.0)
-            UsdGeom.Xformable(c).AddTranslateOp().Set(Gf.Vec3d(x, 0.5, z))
-            UsdGeom.Xformable(c).AddScaleOp().Set(Gf.Vec3f(3.0, 1.0, 1.2))
     UsdGeom.Scope.Define(stage, "/World/Regions")
     region(stage, "/World/Regions/stage", x0 + 0.35, z0 + 0.35, x1 - 0.35, z1 - 0.35)
     region(stage, "/World/Regions/sky", -35.0, -35.0, 45.0, 35.0)
@@ -93,9 +88,9 @@ def world():
     UsdGeom.Scope.Define(stage, "/World/Boxes")
     for i in range(4):
         marker(stage, f"/World/Boxes/b{i}", "box", 7.6, -2.4 + 1.6 * i, -90.0)   # 2.2 m off the kiosk: room to turn round carrying
-    for i, x in enumerate(STALL_X):      # 1.6 m in front of each stall, the carrier facing it
-        marker(stage, f"/World/Boxes/stall_n{i}", "box", x, STALL_Z - 2.2, 180.0)
-        marker(stage, f"/World/Boxes/stall_s{i}", "box", x, -STALL_Z + 2.2, 0.0)
+    for i, x in enumerate(STALL_X):      # a crate at each market pitch, carried from pitch to pitch
+        marker(stage, f"/World/Boxes/stall_n{i}", "box", x, STALL_Z, 180.0)
+        marker(stage, f"/World/Boxes/stall_s{i}", "box", x, -STALL_Z, 0.0)
     UsdGeom.Scope.Define(stage, "/World/Spawns")
     for i in range(4):
         a = 2 * math.pi * i / 4
