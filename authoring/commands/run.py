@@ -94,8 +94,11 @@ def summary(sc, world, life, info) -> str:
         lines.append(f"ambient: {moved}/{len(life.names)} people have had goals; {s['arrived']} arrivals "
                      f"({s['strolls']} strolls, {s['walks']} timed walks, {s['sits']} sits, {s['carries']} carries, "
                      f"{s['meetings']} meetings given)")
-        lines.append(f"goals met on time: {s['met']}/{done} ({100 * life.on_time:.0f}%) of the timed goals finished "
-                     f"({s['late']} late, {s['failed']} not planned)")
+        if done:
+            lines.append(f"goals met on time: {s['met']}/{done} ({100 * life.on_time:.0f}%) of the timed goals "
+                         f"finished ({s['late']} late, {s['failed']} not planned; {s['goals']} given)")
+        else:
+            lines.append(f"goals met on time: none of the {s['goals']} timed goals given has finished yet")
     lines.append(f"tick: p50 {world.tick_percentile(50):.1f} ms, p99 {world.tick_percentile(99):.1f} ms, "
                  f"planning budget {world.budget * 1000:g} ms; plans used {world.stats['plans_done']}, "
                  f"not used {world.stats['plans_failed']}")
