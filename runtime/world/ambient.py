@@ -49,6 +49,8 @@ PERSONAL = 1.3                        # m a stroll's end keeps from where anyone
 STROLLS = np.array([(d, math.radians(b)) for d in (5.0, 9.0) for b in (0.0, -30.0, 30.0)]
                    + [(4.0, math.radians(b)) for b in (-100.0, 100.0, 180.0)])
 STROLL_WEIGHT = np.where(np.arange(len(STROLLS)) < 6, 4.0, 1.0)
+STROLL_WEIGHT[0] = 12.0               # straight ahead most of all: the first searched motion serves many
+KNOWN_STROLL = 8.0                    # weight factor of a stroll somebody has finished (its motion is stored)
 STROLL_LINGER = (4.0, 14.0)           # s standing after a stroll
 
 
@@ -148,6 +150,8 @@ class AmbientLife:
         self.box_of = np.full(count, -1, np.int64)
         self.holding = np.zeros(count, bool)            # carries box_of[i]
         self.short = np.zeros(count, bool)              # the pending walk is a stroll
+        self.stroll_of = np.full(count, -1, np.int64)    # which of STROLLS it is
+        self.stroll_known = np.zeros(len(STROLLS), bool)  # strolls somebody has finished
         self.goals_had = np.zeros(count, np.int64)
         self.stats = {"people": count, "goals": 0, "met": 0, "late": 0, "failed": 0, "timeouts": 0,
                       "arrived": 0, "strolls": 0, "walks": 0, "sits": 0, "carries": 0, "meetings": 0}
@@ -330,12 +334,12 @@ class AmbientLife:
         cand = np.flatnonzero(ok)
         if not len(cand):
             return False
-        wgt = STROLL_WEIGHT[cand]
+        wgt = STROLL_WEIGHT[cand] * np.where(self.stroll_known[cand], KNOWN_STROLL, 1.0)
         k = int(self.rng.choice(cand, p=wgt / wgt.sum()))
         self.world.go_to(self.names[i], tgt[k])
         self.stats["strolls"] += 1
         self._busy(i, WALK, now)
-        self.short[i] = True
+        self.short[i], self.stroll_of[i] = True, k
         return True
 
     def _busy(self, i: int, phase: int, now: float, window=None) -> None:
@@ -487,6 +491,7 @@ class AmbientLife:
             self.stats["arrived"] += 1
             if self.short[i]:
                 lo, hi = STROLL_LINGER
+                self.stroll_known[self.stroll_of[i]] = True
             self.phase[i], self.next_t[i] = LINGER, now + self.rng.uniform(lo, hi)
 
     def _drop_spot(self, k: int, at) -> np.ndarray:
