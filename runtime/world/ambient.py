@@ -227,8 +227,10 @@ class AmbientLife:
         return (float(centre[0]), 0.0, float(centre[1]), 0.5 * cell)
 
     def hud_stats(self) -> dict:
-        return {"ambient": len(self.names), "goals met": f"{self.stats['met']}/{self.stats['goals']}",
-                "on time": f"{100 * self.on_time:.0f}%"}
+        s = self.stats
+        done = s["met"] + s["late"] + s["failed"]
+        return {"ambient": len(self.names), "moving": int(np.isin(self.phase, BUSY).sum()),
+                "goals met on time": f"{s['met']}/{done}" + (f" ({100 * s['met'] / done:.0f}%)" if done else "")}
 
     # -- the tick ---------------------------------------------------------------------------------------
     def tick(self, world) -> None:
