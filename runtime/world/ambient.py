@@ -229,7 +229,7 @@ class AmbientLife:
     def hud_stats(self) -> dict:
         s = self.stats
         done = s["met"] + s["late"] + s["failed"]
-        return {"ambient": len(self.names), "moving": int(np.isin(self.phase, BUSY).sum()),
+        return {"ambient": len(self.names), "with a goal": int(np.isin(self.phase, BUSY).sum()),
                 "goals met on time": f"{s['met']}/{done}" + (f" ({100 * s['met'] / done:.0f}%)" if done else "")}
 
     # -- the tick ---------------------------------------------------------------------------------------
