@@ -127,10 +127,11 @@ def run_plaza(args):
 
     from authoring.commands.bake import load_sample
     from runtime.world import World
-    from runtime.world.ambient import AMBIENT_BUDGET_MS
+    from runtime.world.ambient import AMBIENT_BUDGET_MS, AMBIENT_JOB_SLICE
     sc, graph, env, roadmap = load_sample(ROOT / "samples" / "plaza", log=lambda *a: None, progress=False)
     budget = AMBIENT_BUDGET_MS if args.budget_ms is None else args.budget_ms
-    world = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=budget)
+    world = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=budget,
+                  job_slice=AMBIENT_JOB_SLICE if sc.ambient else None)
     world.apply_scenario(sc)
     world.add_scenario_flocks(sc)
     world.add_scenario_tiling(sc)

@@ -114,7 +114,7 @@ def test_after_5_seconds_most_people_have_had_goals_and_all_are_alive(default_gr
     from authoring.commands.bake import load_sample
     from runtime.world import World
     sc, graph, env, roadmap = load_sample(PLAZA, log=lambda *a: None, progress=False)
-    w = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=8.0)
+    w = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=8.0, job_slice=30)
     w.apply_scenario(sc)
     life = w.add_scenario_ambient(sc, start_within=2.0, max_queue=1000, per_tick=10)
     for _ in range(150):
@@ -200,3 +200,32 @@ def test_gif_recorder_keeps_frames_at_its_rate_and_writes_an_animated_gif(tmp_pa
         assert g.n_frames == 5 and g.size == (64, 18) and g.info["duration"] == 100
     with pytest.raises(ValueError, match="no frames"):
         GifRecorder(tmp_path / "empty.gif").save()
+
+
+@pytest.mark.parametrize("slice_steps", [None, 5])
+def test_planning_queue_round_robin_lets_short_jobs_pass_a_long_one(slice_steps):
+    """With slice_steps a long job gives way to the ones waiting and resumes where it was;
+    without, it runs to its end first. Every job finishes exactly once with its own result."""
+    from types import SimpleNamespace
+
+    from runtime.crowd.planner import Step
+    from runtime.world.planning import PlanningQueue
+
+    def job(name, n):
+        for _ in range(n):
+            yield Step.SEARCH
+        return f"{name} after {n}"
+
+    finished = []
+    chars = {n: SimpleNamespace(name=n, job=None) for n in ("long", "a", "b")}
+    q = PlanningQueue(1e6, ready=lambda c: True, start=lambda c: job(c.name, 200 if c.name == "long" else 3),
+                      finish=lambda c, res: finished.append(res), failed=lambda *a: pytest.fail(str(a)),
+                      slice_steps=slice_steps)
+    for n in ("long", "a", "b"):
+        q.push(chars[n])
+    stats = {}
+    while len(q):
+        q.run(stats)
+    assert sorted(finished) == ["a after 3", "b after 3", "long after 200"]
+    assert finished[-1 if slice_steps else 0] == "long after 200"
+    assert not q.suspended

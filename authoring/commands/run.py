@@ -54,9 +54,10 @@ def run(args) -> int:
         sc, graph, env, roadmap = load_sample(sample, progress=sys.stderr.isatty())
     except (ScenarioError, AssetError, ValueError, FileNotFoundError) as e:
         raise CLIError(str(e)) from None
-    from runtime.world.ambient import AMBIENT_BUDGET_MS
+    from runtime.world.ambient import AMBIENT_BUDGET_MS, AMBIENT_JOB_SLICE
     budget = args.budget_ms if args.budget_ms is not None else (AMBIENT_BUDGET_MS if sc.ambient else 4.0)
-    world = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=budget)
+    world = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=budget,
+                  job_slice=AMBIENT_JOB_SLICE if sc.ambient else None)
     world.apply_scenario(sc)
     if sc.flocks:
         world.add_scenario_flocks(sc)

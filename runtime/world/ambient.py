@@ -28,10 +28,12 @@ import numpy as np
 
 from ..crowd.scenario import BOX_REACH
 
-__all__ = ["AmbientLife", "free_spots", "AMBIENT_BUDGET_MS"]
+__all__ = ["AmbientLife", "free_spots", "AMBIENT_BUDGET_MS", "AMBIENT_JOB_SLICE"]
 
 AMBIENT_BUDGET_MS = 12.0              # planning budget per tick for a World with ambient people
 #                                       (docs/decisions.md: at 4 ms the queue plans about one step a tick)
+AMBIENT_JOB_SLICE = 30                # planner steps a goal runs before giving way (World job_slice):
+#                                       a named character's long ladder no longer holds up the strolls
 
 # phases of one person
 READY, WALK, SIT, SEATED, STAND, FETCH, CARRY, MEET, LINGER = range(9)

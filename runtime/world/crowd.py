@@ -105,12 +105,14 @@ class CrowdSystem:
         rng: the random stream of the planner.
         params: search parameters (default :func:`online_params`); policy: the crowd policy.
         capacity: character slots to start with.
+        job_slice: planner steps a goal's job runs before it gives way to others waiting
+            (:class:`~.planning.PlanningQueue` ``slice_steps``; None: to its end).
     """
 
     name = "crowd"
 
     def __init__(self, world, graph, env, roadmap, budget: float, rng, params: SearchParams | None = None,
-                 policy: CrowdPolicy | None = None, capacity: int = 64):
+                 policy: CrowdPolicy | None = None, capacity: int = 64, job_slice: int | None = None):
         self.world = world
         self.graph, self.env, self.roadmap, self.rng = graph, env, roadmap, rng
         self.params = params or online_params(world.fps)
@@ -123,7 +125,8 @@ class CrowdSystem:
         self.playback = Playback(self.lib, world.fps, index, capacity)
         self.occupancy = Occupancy(self.playback, self.playback.stay_radii(p.margin))
         self.still = still_nodes(graph, p.eps, world.fps)
-        self.queue = PlanningQueue(budget, self._ready, self._start_job, self._finish_job, self._job_failed)
+        self.queue = PlanningQueue(budget, self._ready, self._start_job, self._finish_job, self._job_failed,
+                                   slice_steps=job_slice)
         self.static = None
         if env is not None and (len(env.polygons) or len(env.circles)):
             sdf = env.sdf(resolution=0.05, margin=2.0)

@@ -66,18 +66,21 @@ class World:
         params: search parameters of the online planner (default
             :func:`runtime.world.crowd.online_params`); policy: the crowd policy.
         capacity: character slots to start with (grows as needed).
+        job_slice: planner steps one goal's planning runs before it gives way to the goals
+            waiting behind it (round robin; None: each runs to its end, first come first served).
     """
 
     def __init__(self, library="default", world=None, roadmap=None, dt: float = 1.0 / 30.0,
                  budget_ms: float = 4.0, seed: int = 0, params: SearchParams | None = None,
-                 policy: CrowdPolicy | None = None, capacity: int = 64):
+                 policy: CrowdPolicy | None = None, capacity: int = 64, job_slice: int | None = None):
         from ..library import load_library
         for what, v, lo, hi in (("dt", dt, 1e-4, 1e4), ("budget_ms", budget_ms, 0.0, args.MAX_TIME * 1e3)):
             if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
                 raise TypeError(f"{what} must be a number, not {type(v).__name__}")
             if not (np.isfinite(v) and lo <= v <= hi):
                 raise ValueError(f"{what} must be finite, from {lo:g} to {hi:g}, got {v}")
-        for what, v, lo in (("seed", seed, 0), ("capacity", capacity, 1)):
+        for what, v, lo in (("seed", seed, 0), ("capacity", capacity, 1)) + ((("job_slice", job_slice, 1),)
+                                                                              if job_slice is not None else ()):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
                 raise TypeError(f"{what} must be an integer, not {type(v).__name__}")
             if v < lo:
@@ -98,7 +101,7 @@ class World:
                       "queue": 0, "ticks": 0, "plans_done": 0, "plans_failed": 0,
                       "plans_shifted": 0, "plans_redone": 0, "plans_retried": 0}
         self.crowd = CrowdSystem(self, self.graph, self.env, roadmap, budget_ms / 1000.0, self.rng, params, policy,
-                                 capacity)
+                                 capacity, job_slice)
         self.params = self.crowd.params
         self.flock_host = FlockHost(self.rng)
         self.tiling = TilingHost()

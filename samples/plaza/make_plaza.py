@@ -18,10 +18,10 @@ def marker(stage, path, role, x, z, heading_deg):
 ZONE = (14.0, 24.0, -5.0, 5.0)     # x0, x1, z0, z1 of the tiled interaction zone's fence
 # where the ambient people walk: inside the sky region's bounds, with no obstacle added, so the
 # square's roadmap (and with it the bake of the named characters) stays what it was
-AMBIENT = (-34.0, -30.0, 34.0, 30.0)   # x0, z0, x1, z1
+AMBIENT = (-34.0, -34.0, 44.0, 34.0)   # x0, z0, x1, z1
 AMBIENT_COUNT = 300
 STALL_X = (-27.0, -16.0, -5.0, 6.0, 17.0, 28.0)   # market pitches (a crate each) along the north and south
-STALL_Z = 24.0
+STALL_Z = 30.0
 # benches of three seats (x, z, heading the sitters face, degrees)
 BENCHES = [(-24.0, -8.0, 90.0), (-24.0, 8.0, 90.0), (24.0, -16.0, -90.0), (24.0, 16.0, -90.0),
            (-8.0, -18.0, 0.0), (8.0, 18.0, 180.0), (-8.0, 18.0, 180.0), (8.0, -18.0, 0.0),
