@@ -40,7 +40,11 @@ READY, WALK, SIT, SEATED, STAND, FETCH, CARRY, MEET, LINGER = range(9)
 BUSY = (WALK, SIT, STAND, FETCH, CARRY, MEET)       # waiting for an event of the World
 
 WALK_FAST, WALK_SLOW = 1.7, 0.8       # m/s: the arrival window of a walk of d metres is
-WINDOW_LEAD, WINDOW_SLACK = 1.0, 8.0  # [now + lead + d / fast, now + lead + slack + d / slow]
+WINDOW_LEAD, WINDOW_SLACK = 2.0, 12.0  # [now + lead + d / fast, now + lead + slack + d / slow], the lead
+#                                        grown by the planning latency strolls have seen (LATENCY_RATE)
+WALK_PACE = 1.2                       # m/s a stroll is assumed to take, for that latency
+LATENCY_RATE = 0.2
+SEARCH_LATENCY = 2.0                  # a timed goal needs a search: it waits about this many times longer
 TIMEOUT = 45.0                        # s without an event for a busy person: given up, ready again
 CLEARANCE = 0.9                       # m from obstacles of a spot someone stands on
 SDF_RESOLUTION = 0.2                  # m: the distance grid the clearance tests sample
@@ -54,6 +58,7 @@ STROLL_WEIGHT = np.where(np.arange(len(STROLLS)) < 6, 4.0, 1.0)
 STROLL_WEIGHT[0] = 12.0               # straight ahead most of all: the first searched motion serves many
 KNOWN_STROLL = 8.0                    # weight factor of a stroll somebody has finished (its motion is stored)
 STROLL_LINGER = (4.0, 14.0)           # s standing after a stroll
+STROLL_SHARE = 0.5                    # of the decisions when a timed goal could be given
 
 
 def free_spots(env, area, spacing: float, seed: int = 0, exclude=(), clearance: float = CLEARANCE,
@@ -100,7 +105,7 @@ class AmbientLife:
 
     def __init__(self, world, count: int, seed: int = 0, area=None, exclude=(), seats=None, boxes=None,
                  linger=(10.0, 40.0), per_tick: int = 3, max_queue: int = 16, start_within: float = 15.0,
-                 keep_clear=(), max_planned: int = 2, prefix: str = "amb"):
+                 keep_clear=(), max_planned: int = 3, prefix: str = "amb"):
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
             raise ValueError(f"count must be a non-negative integer, got {count!r}")
         env = world.env
@@ -155,6 +160,8 @@ class AmbientLife:
         self.stroll_of = np.full(count, -1, np.int64)    # which of STROLLS it is
         self.stroll_known = np.zeros(len(STROLLS), bool)  # strolls somebody has finished
         self.goals_had = np.zeros(count, np.int64)
+        self.issued = np.zeros(count)                   # world time the pending goal was given
+        self.latency = 0.0      # s from giving a stroll to its start, a running average over arrivals
         self.stats = {"people": count, "goals": 0, "met": 0, "late": 0, "failed": 0, "timeouts": 0,
                       "arrived": 0, "strolls": 0, "walks": 0, "sits": 0, "carries": 0, "meetings": 0}
         self.world = world
@@ -162,7 +169,8 @@ class AmbientLife:
             world.on(kind, self._event)
 
     def _layout(self, starts, count: int, markers):
-        """Where the people start: a tenth on free benches (seated), a quarter in groups of
+        """Where the people start: one in twenty on free benches (seated; half the seats stay
+        free), a quarter in groups of
         two or three facing each other, the rest standing at free spots. Returns positions
         (count, 2), headings, and the seated and grouped masks."""
         rng = self.rng
@@ -171,7 +179,7 @@ class AmbientLife:
         pos = np.zeros((count, 2))
         heading = rng.uniform(-math.pi, math.pi, count)
         open_seats = np.flatnonzero(self._unreserved(self.seat_xz))
-        n_seat = min(count // 10, len(open_seats))
+        n_seat = min(count // 20, len(open_seats) // 2)
         for k, j in enumerate(rng.permutation(open_seats)[:n_seat]):
             m = markers[self.seats[j]]
             pos[k], heading[k], seated[k] = m.position, m.heading, True
@@ -297,18 +305,17 @@ class AmbientLife:
             self.world.put_down(name, dest[:2], dest[2])
             self._busy(i, CARRY, now)
             return
-        r = self.rng.random()
-        expensive = int(np.isin(self.phase, (SIT, STAND, FETCH, CARRY, MEET)).sum() + (self.phase == WALK).sum()
+        expensive = int(np.isin(self.phase, (SIT, FETCH, CARRY, MEET)).sum() + (self.phase == WALK).sum()
                         - self.short[self.phase == WALK].sum())
-        if expensive >= self.max_planned:       # enough searched goals in flight: a stroll
-            r = 1.0
-        if r < 0.2 and self._try_sit(i, now, pos):
+        r = self.rng.random()
+        if expensive >= self.max_planned or r < STROLL_SHARE:   # mostly strolls: their motions are reused
+            if not self._stroll(i, now, pos):
+                self.next_t[i] = now + 3.0
             return
-        if r < 0.3 and self._try_carry(i, now, pos):
-            return
-        if r < 0.45 and self._try_meet(i, now, pos):
-            return
-        if (r < 0.6 or not self._stroll(i, now, pos)) and not self._walk(i, now, pos):
+        r = self.rng.random()
+        done = (r < 0.3 and self._try_sit(i, now, pos)) or (r < 0.45 and self._try_carry(i, now, pos)) \
+            or (r < 0.65 and self._try_meet(i, now, pos)) or self._walk(i, now, pos) or self._stroll(i, now, pos)
+        if not done:
             self.next_t[i] = now + 3.0
 
     def _stroll(self, i: int, now: float, pos) -> bool:
@@ -348,6 +355,7 @@ class AmbientLife:
 
     def _busy(self, i: int, phase: int, now: float, window=None) -> None:
         self.phase[i] = phase
+        self.issued[i] = now
         self.short[i] = False
         self.deadline[i] = now + TIMEOUT + (0.0 if window is None else window[1] - now)
         self.window[i] = (np.nan, np.nan) if window is None else window
@@ -355,8 +363,10 @@ class AmbientLife:
         self.stats["goals"] += window is not None
 
     def _window(self, now: float, d: float):
-        t0 = now + WINDOW_LEAD + d / WALK_FAST
-        return (t0, now + WINDOW_LEAD + WINDOW_SLACK + d / WALK_SLOW)
+        """The arrival window promised for a walk of ``d`` metres given now: the planning
+        latency the strolls have been seeing, then the walk at a brisk to a slow pace."""
+        lead = WINDOW_LEAD + SEARCH_LATENCY * self.latency
+        return (now + lead + d / WALK_FAST, now + lead + WINDOW_SLACK + d / WALK_SLOW)
 
     def _pick_spot(self, p, lo: float = 5.0, hi: float = 18.0) -> int:
         d = np.linalg.norm(self.spots - p[:2], axis=1)
@@ -432,7 +442,7 @@ class AmbientLife:
         self.spot_taken[k] = True
         self.spot_of[i] = k
         far = float(np.linalg.norm(pos[group] - self.spots[k], axis=1).max())
-        t = now + WINDOW_LEAD + WINDOW_SLACK + far / WALK_SLOW
+        t = now + WINDOW_LEAD + SEARCH_LATENCY * self.latency + WINDOW_SLACK + far / WALK_SLOW
         self.world.meet([self.names[j] for j in group], self.spots[k], t)
         self.stats["meetings"] += 1
         for j in group:
@@ -496,6 +506,8 @@ class AmbientLife:
             if self.short[i]:
                 lo, hi = STROLL_LINGER
                 self.stroll_known[self.stroll_of[i]] = True
+                took = now - self.issued[i] - STROLLS[self.stroll_of[i], 0] / WALK_PACE
+                self.latency += LATENCY_RATE * (float(np.clip(took, 0.0, 60.0)) - self.latency)
             self.phase[i], self.next_t[i] = LINGER, now + self.rng.uniform(lo, hi)
 
     def _drop_spot(self, k: int, at) -> np.ndarray:
