@@ -34,7 +34,7 @@ def test_ambient_table_is_checked(default_graph):
     env = read_world(PLAZA / "world.usda")
     data = tomllib.loads((PLAZA / "scenario.toml").read_text())
     sc = parse_scenario(data, str(PLAZA / "scenario.toml"), env=env)
-    assert sc.ambient.count == 300 and sc.ambient.bounds == (-34.0, -30.0, 34.0, 30.0)
+    assert sc.ambient.count == 300 and sc.ambient.bounds == (-34.0, -34.0, 44.0, 34.0)
     for bad, where in (({"count": 300, "colour": 1}, "colour"), ({"count": -1}, "count"),
                        ({"count": 3, "region": "/World/Regions/nowhere"}, "region"),
                        ({"count": 3, "linger": [5.0, 1.0]}, "linger")):

@@ -48,8 +48,8 @@ HUD, Esc quits.
 
 Views (:func:`~runtime.viewer.camera.look_at_landmark`, from the scene's ``landmarks()``): the
 opening view is the scene's "plaza" landmark (a World with ambient people: their busiest
-stretch) seen from 21 m at 24 degrees, where a person in the middle of a 1280 x 720 view is
-about 50 px tall; without one, the whole environment. Keys: P back to that view, T the tiling
+stretch) seen from 18 m at 24 degrees, where a person in the middle of a 1280 x 720 view is
+at least 30 px tall; without one, the whole environment. Keys: P back to that view, T the tiling
 zone ("tiled"), B the flocks where they are now ("flocks"), R follow a random character (F
 stops following); a key whose place the scene lacks does nothing.
 """

@@ -20,9 +20,9 @@ import numpy as np
 __all__ = ["OrbitCamera", "perspective", "look_at", "project", "look_at_landmark", "VIEWS"]
 
 # The views the viewer's keys jump to, by landmark name: (distance m, pitch rad) or None (fitted to
-# the landmark's radius). "plaza", the opening view, shows a person about 50 px tall in the middle
+# the landmark's radius). "plaza", the opening view, shows a person at least 30 px tall in the middle
 # of a 720 px high view (45 degree field of view).
-VIEWS = {"plaza": (21.0, 0.42), "follow": (9.0, 0.35), "tiled": None, "flocks": None}
+VIEWS = {"plaza": (18.0, 0.42), "follow": (9.0, 0.35), "tiled": None, "flocks": None}
 
 
 def perspective(fov_y: float, aspect: float, near: float, far: float) -> np.ndarray:
