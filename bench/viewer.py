@@ -20,7 +20,15 @@ estimate for an idle machine (labelled as such).
 Backends: ``--mode headless`` (EGL, default) or ``--mode xvfb`` (starts a private Xvfb and opens a
 real window). The machine may be shared: the load average is printed. No asserts.
 
+``--plaza`` measures the living plaza instead (``crowdweave run``'s default sample: its named
+characters, 300 ambient people kept busy by ``runtime.world.ambient``, the tiled zone and the
+flocks, all on one World planning live under its budget) at 1280x720 from the opening view: frame
+rate of the whole loop (target >= 30 fps) and the World's tick times, p50 / p99 / max (target p99
+<= 16 ms), with the planning figures of the run; the same frames with the scene paused give the
+viewer's own cost.
+
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/viewer.py [--counts 500,2000] [--seconds 6]
+    CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/viewer.py --plaza [--seconds 30]
 """
 from __future__ import annotations
 
@@ -86,15 +94,92 @@ def main(argv=None):
     ap.add_argument("--height", type=int, default=720)
     ap.add_argument("--baseline-frames", type=int, default=3)
     ap.add_argument("--screenshot-dir", default=None, help="save the last frame of each run here")
+    ap.add_argument("--plaza", action="store_true", help="the living plaza (samples/plaza with its ambient people)")
+    ap.add_argument("--budget-ms", type=float, default=None, help="--plaza: the World's planning budget (default: "
+                                                                   "crowdweave run's for an ambient scenario)")
     args = ap.parse_args(argv)
     xvfb, display_fd = start_xvfb() if args.mode == "xvfb" else (None, None)
     try:
-        run(args)
+        run_plaza(args) if args.plaza else run(args)
     finally:
         if xvfb is not None:
             xvfb.terminate()
             xvfb.wait(10)
             os.close(display_fd)
+
+
+def paused_fps(viewer, seconds: float) -> float:
+    """Frame rate of the viewer with its scene paused (the viewer's own cost), over ``seconds``."""
+    viewer.paused = True
+    frames, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        viewer.run(max_frames=1)
+        frames += 1
+    viewer.paused = False
+    return frames / (time.perf_counter() - t0)
+
+
+def run_plaza(args):
+    """The living plaza at ``--width`` x ``--height`` from the opening view."""
+    from runtime.viewer import headless, make_viewer
+    headless.configure(args.mode == "headless")
+    from pyglet import gl
+
+    from authoring.commands.bake import load_sample
+    from runtime.world import World
+    from runtime.world.ambient import AMBIENT_BUDGET_MS, AMBIENT_JOB_SLICE
+    sc, graph, env, roadmap = load_sample(ROOT / "samples" / "plaza", log=lambda *a: None, progress=False)
+    budget = AMBIENT_BUDGET_MS if args.budget_ms is None else args.budget_ms
+    world = World(graph, world=env, roadmap=roadmap, seed=sc.seed, budget_ms=budget,
+                  job_slice=AMBIENT_JOB_SLICE if sc.ambient else None)
+    world.apply_scenario(sc)
+    world.add_scenario_flocks(sc)
+    world.add_scenario_tiling(sc)
+    life = world.add_scenario_ambient(sc)
+    viewer = make_viewer(world, headless=(args.mode == "headless"), width=args.width, height=args.height)
+    viewer.run(max_frames=5)                           # warm-up: shader compilation, first ticks
+    t_warm, ticks0 = world.time, world.stats["ticks"]
+    frame_ms, step_ms = [], []
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < args.seconds:
+        t = time.perf_counter()
+        viewer.run(max_frames=1)
+        frame_ms.append((time.perf_counter() - t) * 1e3)
+        step_ms.append(viewer.frame_ms.get("step", 0.0))
+    elapsed = time.perf_counter() - t0
+    n_ticks = world.stats["ticks"] - ticks0
+    ticks = world.tick_times[np.arange(ticks0, ticks0 + n_ticks) % len(world.tick_times)]
+    fps_paused = paused_fps(viewer, max(1.0, args.seconds / 6))
+    renderer_name = gl.gl_info.get_renderer()
+    lod = dict(viewer.renderer.lod_counts)
+    if args.screenshot_dir:
+        Path(args.screenshot_dir).mkdir(parents=True, exist_ok=True)
+        viewer.save_screenshot(Path(args.screenshot_dir) / "viewer_plaza.png")
+    viewer.close()
+    load = os.getloadavg()
+    fps = len(frame_ms) / elapsed
+    s = life.stats
+    print(f"living plaza, {args.mode} ({renderer_name}), {args.width}x{args.height}, opening view, "
+          f"{args.seconds:g} s of frames after a 5-frame warm-up")
+    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs")
+    print(f"characters {len(world.names)} ({len(life.names)} ambient), tiled {sum(len(z) for z in world.tilings)}, "
+          f"flock agents {len(world.flock_positions()[0])}; planning budget {budget:g} ms/tick")
+    print()
+    print(f"{'':14} {'p50':>8} {'p99':>8} {'max':>8}   (ms)")
+    print(f"{'frame':14} {np.percentile(frame_ms, 50):>8.1f} {np.percentile(frame_ms, 99):>8.1f} {max(frame_ms):>8.1f}")
+    print(f"{'scene step':14} {np.percentile(step_ms, 50):>8.1f} {np.percentile(step_ms, 99):>8.1f} {max(step_ms):>8.1f}")
+    if n_ticks:
+        print(f"{'World tick':14} {np.percentile(ticks, 50):>8.1f} {np.percentile(ticks, 99):>8.1f} {ticks.max():>8.1f}"
+              f"   ({n_ticks} ticks)")
+    print()
+    print(f"frame rate {fps:.1f} fps (target >= 30), {fps_paused:.1f} fps paused (the viewer alone); "
+          f"LOD near/far {lod.get('near', 0)}/{lod.get('far', 0)}")
+    if n_ticks:
+        print(f"World tick p99 {np.percentile(ticks, 99):.1f} ms (target <= 16); "
+              f"{world.time - t_warm:.1f} s simulated in {elapsed:.1f} s")
+    print(f"planning: plans used {world.stats['plans_done']}, not used {world.stats['plans_failed']}; ambient: "
+          f"{int((life.goals_had > 0).sum())}/{len(life.names)} people have had goals, {s['arrived']} arrivals, "
+          f"timed goals met on time {s['met']}/{s['met'] + s['late'] + s['failed']}")
 
 
 def run(args):
@@ -127,13 +212,7 @@ def run(args):
         elapsed = time.perf_counter() - t0
         fps = frames / elapsed
         # the same scene paused: the viewer's own cost (the stand-in scene's ticks excluded)
-        viewer.paused = True
-        pf, t1 = 0, time.perf_counter()
-        while time.perf_counter() - t1 < max(1.0, args.seconds / 2):
-            viewer.run(max_frames=1)
-            pf += 1
-        fps_paused = pf / (time.perf_counter() - t1)
-        viewer.paused = False
+        fps_paused = paused_fps(viewer, max(1.0, args.seconds / 2))
         renderer_name = gl.gl_info.get_renderer()
         if args.screenshot_dir:
             Path(args.screenshot_dir).mkdir(parents=True, exist_ok=True)

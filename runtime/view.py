@@ -64,3 +64,7 @@ class InteractiveSceneView(SceneView, Protocol):
 
     def command_go_to(self, i: int, xz: np.ndarray) -> None:
         """Right-click on the ground with character ``i`` selected; ``xz`` float64 (2,)."""
+
+    def landmarks(self) -> dict:
+        """Named places the viewer's view keys jump to: name -> (x, y, z, radius) ("plaza":
+        the opening view, "tiled", "flocks")."""

@@ -69,7 +69,7 @@ def test_run_headless_screenshot(tmp_path, default_graph):
                        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     assert out.exists() and out.stat().st_size > 10_000
-    assert "13 characters" in r.stdout and "8 tiled" in r.stdout
+    assert "313 characters (300 ambient)" in r.stdout and "8 tiled" in r.stdout and "p99" in r.stdout
 
 
 def test_display_probe_reports_why_there_is_none(monkeypatch):
@@ -93,5 +93,5 @@ def test_demo_without_a_display_renders_the_plaza_headless(tmp_path, default_gra
     r = subprocess.run([sys.executable, "-m", "authoring.cli", "demo", "--quiet", "--seconds", "1"],
                        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
-    assert "no display (DISPLAY is not set)" in r.stdout and "13 characters" in r.stdout
+    assert "no display (DISPLAY is not set)" in r.stdout and "313 characters" in r.stdout
     assert shot.exists() and shot.stat().st_size > 10_000

@@ -70,7 +70,7 @@ def run(args) -> int:
     from authoring.commands import run as run_cmd
     ok, why = display_available()
     ns = argparse.Namespace(sample=None, headless=False, seconds=args.seconds, screenshot=None, width=1280,
-                            height=720, budget_ms=4.0)
+                            height=720, budget_ms=None, record=None)
     if ok:
         print(f"\nopening the plaza sample on display {why} (close the window to quit; click a character, "
               "right-click the ground to send it there)")

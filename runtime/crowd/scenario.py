@@ -23,6 +23,11 @@ start = { position = [0.0, 0.0], heading = 0.0, pose = "stand" }   # or seat = "
   seat = "/World/Seats/s01" # sets position, heading and pose "sit" from the marker
   box = "/World/Boxes/b01"  # stands in front of the box facing it, pose "carry" (picks it up)
   after = { character = "c02", goal = 0, within = [0.0, 1.0] }  # relative timing
+[ambient]                   # optional: people going about their day (runtime.world.ambient)
+count = 300
+seed = 0
+region = "/World/Regions/ambient"   # a region marker: where they walk (default: the world's bounds)
+linger = [10.0, 40.0]       # seconds at a spot, on a bench, in a conversation
 ```
 
 Validation happens before any planning and raises :class:`ScenarioError` with one line naming
@@ -46,7 +51,7 @@ from ..limits import (MAX_CHARACTER_SECONDS, MAX_CHARACTERS, MAX_DURATION, MAX_F
                       MAX_FLOCK_SECONDS, MAX_FLOCKS, MAX_GOALS, MAX_SEED, MAX_TEAM, MAX_TOML_BYTES)
 from .schema import Table, read_toml, show
 
-__all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "FlockSpec", "load_scenario", "parse_scenario",
+__all__ = ["ScenarioError", "Scenario", "CharacterSpec", "GoalSpec", "FlockSpec", "AmbientSpec", "load_scenario", "parse_scenario",
            "read_scenario_toml", "scenario_sources", "planning_order", "prim_name", "BOX_REACH"]
 
 # Distance from a box marker to the root of a character standing at it, facing it (m).
@@ -119,6 +124,19 @@ class TilingSpec:
 
 
 @dataclass
+class AmbientSpec:
+    """``[ambient]``: ``count`` people kept busy by :class:`runtime.world.ambient.AmbientLife`
+    (run time only: the offline bake plans the ``[[character]]`` entries). ``region`` a region
+    marker whose outline's bounding rectangle is where they walk (``bounds``; None: the world's
+    bounds); ``linger`` (min, max) seconds spent at a spot, on a bench, in a conversation."""
+    count: int
+    seed: int = 0
+    region: str | None = None
+    bounds: tuple | None = None
+    linger: tuple = (10.0, 40.0)
+
+
+@dataclass
 class Scenario:
     name: str
     path: str
@@ -131,6 +149,7 @@ class Scenario:
     synthesis: dict = field(default_factory=dict)
     flocks: list = field(default_factory=list)
     tilings: list = field(default_factory=list)
+    ambient: AmbientSpec | None = None
 
     def character(self, name: str) -> CharacterSpec:
         for c in self.characters:
@@ -139,7 +158,9 @@ class Scenario:
         raise KeyError(name)
 
 
-_TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description", "flock", "tiling"}
+_TOP = {"name", "world", "library", "duration", "seed", "synthesis", "character", "description", "flock", "tiling",
+        "ambient"}
+_AMBIENT = {"count", "seed", "region", "linger"}
 _SYNTHESIS = {"epsilon", "passes", "start_still", "approach_point", "n_m", "k_m", "n_max"}
 _TILING = {"name", "zone", "patches", "period", "horizon", "seed", "team"}
 _TEAM = {"count", "start", "heading", "targets"}
@@ -163,6 +184,23 @@ def prim_name(name: str) -> str:
         return name
     s = re.sub(r"[^A-Za-z0-9_]", "_", name)
     return "_" + s if not s or s[0].isdigit() else s
+
+
+def _ambient_spec(top: Table, markers: dict) -> AmbientSpec | None:
+    if "ambient" not in top:
+        return None
+    t = top.table("ambient", "[ambient]", _AMBIENT)
+    count = t.integer("count", 0, 0, MAX_CHARACTERS)
+    bounds = region = None
+    if "region" in t:
+        region = t.string("region", nonempty=True)
+        m = markers.get(region)
+        if m is None or m.role != "region" or m.polygon is None:
+            t.fail("region", f"no region marker {region!r} with an outline in the world")
+        lo, hi = np.min(m.polygon, axis=0), np.max(m.polygon, axis=0)
+        bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    linger = t.interval("linger", (10.0, 40.0), lo=0.0, hi=MAX_DURATION) if "linger" in t else (10.0, 40.0)
+    return AmbientSpec(count, t.integer("seed", 0, 0, MAX_SEED), region, bounds, tuple(float(v) for v in linger))
 
 
 def _tiling_spec(path, ti: int, rt: dict, markers: dict) -> TilingSpec:
@@ -378,8 +416,9 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
     raw_chars = top.tables("character", MAX_CHARACTERS)
     raw_flocks = top.tables("flock", 100)
     raw_tilings = top.tables("tiling", 100)
-    if not (raw_chars or raw_flocks or raw_tilings):
-        raise ScenarioError(f"{path}: no [[character]], [[flock]] or [[tiling]] entries")
+    ambient = _ambient_spec(top, markers)
+    if not (raw_chars or raw_flocks or raw_tilings or (ambient and ambient.count)):
+        raise ScenarioError(f"{path}: no [[character]], [[flock]], [[tiling]] or [ambient] entries")
     tilings = [_tiling_spec(path, ti, rt, markers) for ti, rt in enumerate(raw_tilings)]
     flocks = [_flock_spec(path, fi, rf, markers) for fi, rf in enumerate(raw_flocks)]
     chars = []
@@ -397,14 +436,15 @@ def parse_scenario(data: dict, path: str = "<scenario>", env=None, node_labels=N
             spec.goals.append(_goal(path, f"character {cname!r} goal {gi}", rg, markers, duration))
         chars.append(spec)
     n = len(chars) + sum(team["count"] for tl in tilings for team in tl.teams)
-    if n > MAX_CHARACTERS:
-        raise ScenarioError(f"{path}: {n} characters (crowd and tiled): more than the limit of {MAX_CHARACTERS}")
+    if n + (ambient.count if ambient else 0) > MAX_CHARACTERS:
+        raise ScenarioError(f"{path}: {n + (ambient.count if ambient else 0)} characters (crowd, tiled and "
+                            f"ambient): more than the limit of {MAX_CHARACTERS}")
     if n * duration > MAX_CHARACTER_SECONDS:
         raise ScenarioError(f"{path}: duration: {n} characters x {duration:g} s is more than the limit of "
                             f"{MAX_CHARACTER_SECONDS:g} character-seconds (a bake holds about 4.5 KB per "
                             "character and frame); shorten the scenario or split the crowd")
     _check_names(path, chars, tilings, flocks)
-    sc = Scenario(name, path, world, library, duration, seed, eps, chars, syn, flocks, tilings)
+    sc = Scenario(name, path, world, library, duration, seed, eps, chars, syn, flocks, tilings, ambient)
     validate(sc, env, node_labels)
     return sc
 

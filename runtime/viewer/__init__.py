@@ -11,7 +11,7 @@ The viewer reads a scene only through :class:`runtime.view.SceneView` (``environ
 ``skeleton``, ``joint_positions()``, ``step(dt)``) and the optional members of
 :class:`runtime.view.InteractiveSceneView` (``dt``, ``obstacle_heights``,
 ``flock_positions()``, ``box_positions()``, ``hud_stats()``, ``select(i)``,
-``command_go_to(i, xz)``), each used when the scene has it. A :class:`runtime.World`
+``command_go_to(i, xz)``, ``landmarks()``), each used when the scene has it. A :class:`runtime.World`
 provides them all; :class:`TrackScene` is a stand-in. The skeleton's joint names choose the
 figure style (CMU names give shaded capsule-limbed people); joint 0 of each character is its
 root (picking, shadows, selection ring); movable boxes from ``box_positions()`` (0.4 m crates)
@@ -20,7 +20,8 @@ frame time times the time scale, and ``dt`` for a single step.
 
 Modules
 -------
-``window`` (the frame loop and input), ``camera`` (numpy), ``render`` (one frame) with its
+``window`` (the frame loop and input), ``camera`` (numpy; the views), ``record`` (an animated
+GIF of the frames), ``render`` (one frame) with its
 passes ``backdrop`` and ``characters``, ``figures`` and ``meshes`` (geometry, numpy),
 ``lighting`` (colours), ``gl`` (GL wrappers; GLSL in ``shaders/``), ``hud``, ``headless``
 (backend choice), ``scene`` (:class:`TrackScene`), ``baseline`` (the benchmark's references).
@@ -44,6 +45,13 @@ Input: left click selects the character whose projected root is nearest the poin
 ground calls ``scene.command_go_to(selected, xz)`` (ray-plane intersection with y = 0); Space
 pauses, '.' steps one tick, +/- double/halve the time scale, F follows the selection, H hides the
 HUD, Esc quits.
+
+Views (:func:`~runtime.viewer.camera.look_at_landmark`, from the scene's ``landmarks()``): the
+opening view is the scene's "plaza" landmark (a World with ambient people: their busiest
+stretch) seen from 18 m at 24 degrees, where a person in the middle of a 1280 x 720 view is
+at least 30 px tall; without one, the whole environment. Keys: P back to that view, T the tiling
+zone ("tiled"), B the flocks where they are now ("flocks"), R follow a random character (F
+stops following); a key whose place the scene lacks does nothing.
 """
 from __future__ import annotations
 
@@ -65,18 +73,24 @@ def make_viewer(scene: SceneView, headless: bool | None = False, width: int = 12
 
 def run_viewer(scene: SceneView, headless: bool | None = False, seconds: float | None = None, screenshot=None,
                width: int = 1280, height: int = 720, max_frames: int | None = None, min_frames: int = 1,
-               camera=None, **kwargs):
+               camera=None, record=None, **kwargs):
     """Open the viewer on ``scene`` and run until the window closes, or for ``seconds`` /
     ``max_frames``; save the last frame to ``screenshot`` (PNG) if given.
 
     ``camera`` (optional) is a callable ``f(viewer.camera)`` to position the camera before the
-    first frame. Returns a :class:`~runtime.viewer.window.FrameInfo`: frame count, fps, the
-    framebuffer size, the view-projection matrix and the joint positions of the last frame (so a
-    caller can project world points into the screenshot with :func:`project`)."""
+    first frame. ``record`` (a :class:`~runtime.viewer.record.GifRecorder`) collects frames
+    for an animated GIF, saved when the loop ends. Returns a
+    :class:`~runtime.viewer.window.FrameInfo`: frame count, fps, the framebuffer size, the
+    view-projection matrix and the joint positions of the last frame (so a caller can project
+    world points into the screenshot with :func:`project`)."""
     viewer = make_viewer(scene, headless=headless, width=width, height=height, **kwargs)
     try:
         if camera is not None:
             camera(viewer.camera)
-        return viewer.run(seconds=seconds, screenshot=screenshot, max_frames=max_frames, min_frames=min_frames)
+        info = viewer.run(seconds=seconds, screenshot=screenshot, max_frames=max_frames, min_frames=min_frames,
+                          record=record)
+        if record is not None:
+            record.save()
+        return info
     finally:
         viewer.close()

@@ -17,7 +17,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["OrbitCamera", "perspective", "look_at", "project"]
+__all__ = ["OrbitCamera", "perspective", "look_at", "project", "look_at_landmark", "VIEWS"]
+
+# The views the viewer's keys jump to, by landmark name: (distance m, pitch rad) or None (fitted to
+# the landmark's radius). "plaza", the opening view, shows a person at least 30 px tall in the middle
+# of a 720 px high view (45 degree field of view).
+VIEWS = {"plaza": (18.0, 0.42), "follow": (9.0, 0.35), "tiled": None, "flocks": None}
 
 
 def perspective(fov_y: float, aspect: float, near: float, far: float) -> np.ndarray:
@@ -128,6 +133,24 @@ class OrbitCamera:
         self.target = np.array([(x0 + x1) / 2, 0.0, (z0 + z1) / 2])
         r = 0.5 * math.hypot(x1 - x0, z1 - z0) * margin
         self.distance = float(np.clip(r / math.tan(0.5 * self.fov_y), self.min_distance, self.max_distance))
+
+
+def look_at_landmark(cam: OrbitCamera, name: str, spot) -> None:
+    """Point ``cam`` at landmark ``name`` = (x, y, z, radius) (see ``World.landmarks``): "plaza"
+    and "follow" at a person's scale (:data:`VIEWS`, looking at chest height), "flocks" from
+    far enough for the flock's spread, anything else (a tiling zone) fitted to its radius."""
+    x, y, z, r = (float(v) for v in spot)
+    fixed = VIEWS.get(name)
+    if fixed is not None:
+        cam.target = np.array([x, 0.9, z])
+        cam.distance, cam.pitch = fixed
+    elif name == "flocks":
+        cam.target = np.array([x, y, z])
+        cam.distance, cam.pitch = float(np.clip(2.2 * r + 12.0, 15.0, cam.max_distance)), 0.3
+    else:
+        cam.target = np.array([x, y, z])
+        cam.distance = float(np.clip(1.2 * r / math.tan(0.5 * cam.fov_y), 8.0, cam.max_distance))
+        cam.pitch = 0.6
 
 
 def project(vp: np.ndarray, points, width: int, height: int):

@@ -11,8 +11,9 @@ from pyglet import shapes  # noqa: E402
 
 __all__ = ["Hud", "format_stats"]
 
-HELP = ("LMB click: select   LMB drag: orbit   MMB / Shift+LMB drag: pan   wheel: zoom   "
-        "RMB: send selected there   Space: pause   .: step   +/-: speed   F: follow   H: HUD   Esc: quit")
+HELP = ("LMB: select / orbit   MMB, Shift+LMB: pan   wheel: zoom   RMB: send selected there   "
+        "P: plaza  T: tiled zone  B: birds  R: follow someone   Space: pause  .: step  +/-: speed  "
+        "F: follow  H: HUD  Esc: quit")
 
 
 def _fmt(v) -> str:

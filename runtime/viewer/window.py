@@ -23,7 +23,7 @@ from pyglet.window import key, mouse  # noqa: E402
 
 from ..assets import atomic_write_bytes  # noqa: E402
 from ..view import SceneView  # noqa: E402
-from .camera import OrbitCamera  # noqa: E402
+from .camera import OrbitCamera, look_at_landmark  # noqa: E402
 from .hud import Hud, format_stats  # noqa: E402
 from .render import Renderer  # noqa: E402
 
@@ -74,14 +74,17 @@ class Viewer:
         self.camera = OrbitCamera()
         self.renderer = Renderer(scene.skeleton)
         self.renderer.characters.names_source = lambda: getattr(scene, "names", None)   # looks by name
+        self.view_name = "overview"        # the last view a key (or the opening) chose
+        self._rng = np.random.default_rng(0)   # "follow a random character" (R)
+        self._last_positions = None
+        self.selected: int | None = None
+        self.follow = False
         self._env = None
         self._dynamic_boxes = False
         self._sync_environment()
         self.hud = Hud(window)
         self.paused = False
         self.time_scale = 1.0
-        self.selected: int | None = None
-        self.follow = False
         self.target_marker = None          # (x, z, until) of the last go-to command
         self.info = FrameInfo()
         self._press = None                 # (x, y, button, modifiers) of a pending left click
@@ -89,7 +92,6 @@ class Viewer:
         self._fps_frames = 0
         self._fps_t0 = time.perf_counter()
         self._fps = 0.0
-        self._last_positions = None
         self.frame_ms: dict[str, float] = {}
         self.commands_sent: list[tuple[int, np.ndarray]] = []
         self._clock = None                 # time of the last update (kept across run() calls)
@@ -112,6 +114,7 @@ class Viewer:
         self.renderer.set_environment(env, heights, draw_boxes=not dynamic_boxes)
         if self._env is None:
             self.camera.frame(self.renderer.area, margin=0.85)
+            self.jump("plaza")           # the busy part at a person's scale, when the scene says where
         self._env = env
         self._dynamic_boxes = dynamic_boxes
 
@@ -177,6 +180,35 @@ class Viewer:
         self.target_marker = (float(hit[0]), float(hit[1]), time.perf_counter() + 3.0)
         return hit
 
+    # -- views ---------------------------------------------------------------------------------------
+    def landmarks(self) -> dict:
+        """The scene's named places (``landmarks()``: name -> (x, y, z, radius)), or {}."""
+        f = self._optional("landmarks")
+        return dict(f()) if f is not None else {}
+
+    def jump(self, name: str) -> bool:
+        """Point the camera at a view: "plaza" (the scene's busiest stretch, at a person's scale),
+        "tiled" (the tiling zone), "flocks" (the birds, where they are now), "follow" (follow a
+        random character). Returns False (camera unchanged) when the scene has no such place."""
+        cam = self.camera
+        if name == "follow":
+            P = self._last_positions if self._last_positions is not None else np.asarray(self.scene.joint_positions())
+            if P is None or len(P) == 0:
+                return False
+            self.select(int(self._rng.integers(len(P))))
+            root = P[self.selected, 0]
+            look_at_landmark(cam, name, (root[0], 0.0, root[2], 1.0))
+            self.follow = True
+            self.view_name = name
+            return True
+        spot = self.landmarks().get(name)
+        if spot is None:
+            return False
+        look_at_landmark(cam, name, spot)
+        self.follow = False
+        self.view_name = name
+        return True
+
     # -- pyglet events -------------------------------------------------------------------------------
     def on_mouse_press(self, x, y, button, modifiers):
         if button == mouse.RIGHT:
@@ -220,6 +252,8 @@ class Viewer:
             self.follow = not self.follow
         elif symbol == key.H:
             self.hud.visible = not self.hud.visible
+        elif symbol in (key.P, key.T, key.B, key.R):
+            self.jump({key.P: "plaza", key.T: "tiled", key.B: "flocks", key.R: "follow"}[symbol])
         elif symbol == key.ESCAPE:
             self.window.has_exit = True
             return pyglet.event.EVENT_HANDLED
@@ -245,7 +279,7 @@ class Viewer:
         self._last_positions = P
         if self.follow and self.selected is not None and self.selected < len(P):
             root = P[self.selected, 0]
-            self.camera.target += 0.15 * (np.array([root[0], 0.0, root[2]]) - self.camera.target)
+            self.camera.target += 0.15 * (np.array([root[0], self.camera.target[1], root[2]]) - self.camera.target)
         w, h = self.framebuffer_size()
         view, proj = self.camera.view(), self.camera.projection(w, h)
         vp = proj @ view
@@ -287,6 +321,14 @@ class Viewer:
         gl.glBlendFunc(gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA)
         self.hud.draw()
 
+    def grab_rgb(self) -> np.ndarray:
+        """The frame just drawn (the back buffer) as (height, width, 3) uint8, top row first."""
+        w, h = self.framebuffer_size()
+        buf = (gl.GLubyte * (w * h * 3))()
+        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+        gl.glReadPixels(0, 0, w, h, gl.GL_RGB, gl.GL_UNSIGNED_BYTE, buf)
+        return np.frombuffer(buf, dtype=np.uint8).reshape(h, w, 3)[::-1]
+
     def save_screenshot(self, path) -> str:
         """Save the frame just drawn (the back buffer) as a PNG, atomically."""
         path = Path(path)
@@ -305,12 +347,13 @@ class Viewer:
             self._fps_t0 = now
 
     def run(self, seconds: float | None = None, screenshot=None, max_frames: int | None = None,
-            min_frames: int = 1, finish: bool = True) -> FrameInfo:
+            min_frames: int = 1, finish: bool = True, record=None) -> FrameInfo:
         """The frame loop: events, ``scene.step`` by the elapsed real time (times the time
         scale, unless paused), draw, flip. Stops when the window closes, after ``seconds`` (and
         at least ``min_frames``) or ``max_frames``; then saves ``screenshot`` (the last frame)
         if given. ``finish`` waits for GL to complete each frame (honest frame times with
-        software rendering)."""
+        software rendering). ``record`` (a :class:`~runtime.viewer.record.GifRecorder`) is
+        handed the frames it asks for; the caller saves it."""
         win = self.window
         start = time.perf_counter()
         last = self._clock if self._clock is not None else start
@@ -330,6 +373,8 @@ class Viewer:
             frames += 1
             self._tick_fps()
             elapsed = time.perf_counter() - start
+            if record is not None and record.due(elapsed):
+                record.add(self.grab_rgb(), elapsed)
             done = ((seconds is not None and elapsed >= seconds and frames >= min_frames)
                     or (max_frames is not None and frames >= max_frames))
             if done and screenshot is not None:

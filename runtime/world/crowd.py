@@ -105,12 +105,14 @@ class CrowdSystem:
         rng: the random stream of the planner.
         params: search parameters (default :func:`online_params`); policy: the crowd policy.
         capacity: character slots to start with.
+        job_slice: planner steps a goal's job runs before it gives way to others waiting
+            (:class:`~.planning.PlanningQueue` ``slice_steps``; None: to its end).
     """
 
     name = "crowd"
 
     def __init__(self, world, graph, env, roadmap, budget: float, rng, params: SearchParams | None = None,
-                 policy: CrowdPolicy | None = None, capacity: int = 64):
+                 policy: CrowdPolicy | None = None, capacity: int = 64, job_slice: int | None = None):
         self.world = world
         self.graph, self.env, self.roadmap, self.rng = graph, env, roadmap, rng
         self.params = params or online_params(world.fps)
@@ -123,7 +125,8 @@ class CrowdSystem:
         self.playback = Playback(self.lib, world.fps, index, capacity)
         self.occupancy = Occupancy(self.playback, self.playback.stay_radii(p.margin))
         self.still = still_nodes(graph, p.eps, world.fps)
-        self.queue = PlanningQueue(budget, self._ready, self._start_job, self._finish_job, self._job_failed)
+        self.queue = PlanningQueue(budget, self._ready, self._start_job, self._finish_job, self._job_failed,
+                                   slice_steps=job_slice)
         self.static = None
         if env is not None and (len(env.polygons) or len(env.circles)):
             sdf = env.sdf(resolution=0.05, margin=2.0)
@@ -243,6 +246,11 @@ class CrowdSystem:
             return PendingGoal(Goal(r[:2] + 0.45 * fwd, float(r[2]), self.pose_nodes("stand")), "stand")
         if kind == "pick_up":
             m = self.marker(marker, "box")
+            placed = self.box_place.get(marker)
+            if placed is not None:     # put down somewhere else since: stand where its carrier stood
+                h = float(placed[2])
+                at = np.array(placed[:2], float) - BOX_REACH * np.array([math.sin(h), math.cos(h)])
+                return PendingGoal(Goal(at, h, self.pose_nodes("carry")), "pick_up", marker)
             fwd = np.array([math.sin(m.heading), math.cos(m.heading)])
             return PendingGoal(Goal(m.position + BOX_REACH * fwd, m.heading + math.pi, self.pose_nodes("carry")),
                                "pick_up", marker)

@@ -9,6 +9,12 @@ duration (:class:`StepCosts`, a high running estimate per kind) fits in what is 
 budget, and the first step of a tick always runs, so planning progresses even when a single step
 is longer than the budget (the Recast/Detour pattern of a sliced query: init, update with a
 budget, finalize).
+
+With ``slice_steps`` set, a job that has run that many steps while others wait goes to the back
+of the queue, its planner kept as it is, and resumes when its turn comes again (round robin):
+a goal whose ladder needs thousands of steps no longer holds up the short plans behind it. A
+plan that finishes after its hand-off has played is handled as any late plan (moved to a later
+idle-loop end, or planned again).
 """
 from __future__ import annotations
 
@@ -63,10 +69,15 @@ class PlanningQueue:
         finish: ``finish(c, result)``: use a finished plan.
         failed: ``failed(c, message, pop)``: a job could not start, raised, or its result could
             not be used (``pop``: drop the goal it was for).
+        slice_steps: steps a job runs before it yields its place to a waiting one (None: it
+            runs to its end).
     """
 
-    def __init__(self, budget: float, ready, start, finish, failed):
+    def __init__(self, budget: float, ready, start, finish, failed, slice_steps: int | None = None):
         self.budget = budget
+        self.slice_steps = slice_steps
+        self.suspended: dict = {}    # id(character) -> the next step kind of its suspended job
+        self.job_steps = 0           # steps the active job has run since it (re)started
         self.ready, self._start, self._finish, self._failed = ready, start, finish, failed
         self.queue: deque = deque()
         self.active = None           # the character whose job is running
@@ -89,6 +100,7 @@ class PlanningQueue:
             self.done = None
         if c in self.queue:
             self.queue.remove(c)
+        self.suspended.pop(id(c), None)
 
     def _next_job(self) -> bool:
         """Make the first queued character that is ready the active job; False when none."""
@@ -96,6 +108,10 @@ class PlanningQueue:
         while self.queue and self.active is None and tries > 0:
             tries -= 1
             c = self.queue.popleft()
+            if id(c) in self.suspended:          # a job that gave way: resume it
+                self.next_kind = self.suspended.pop(id(c))
+                self.active, self.job_steps = c, 0
+                break
             verdict = self.ready(c)
             if verdict is None:
                 continue
@@ -106,6 +122,7 @@ class PlanningQueue:
                 c.job = self._start(c)
                 self.active = c
                 self.next_kind = START
+                self.job_steps = 0
             except Exception as e:
                 self._failed(c, f"planning failed to start: {e}", pop=True)
         return self.active is not None
@@ -114,6 +131,11 @@ class PlanningQueue:
         c = self.active
         try:
             self.next_kind = next(c.job)
+            self.job_steps += 1
+            if self.slice_steps is not None and self.job_steps >= self.slice_steps and self.queue:
+                self.suspended[id(c)] = self.next_kind       # others wait: give way
+                self.queue.append(c)
+                self.active = None
         except StopIteration as stop:
             self.active = None
             self.done = (c, stop.value)

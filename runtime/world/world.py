@@ -28,6 +28,7 @@ an error of a system added with :meth:`add_system` is the caller's and propagate
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -48,6 +49,7 @@ from .tiling import TilingHost
 __all__ = ["World"]
 
 MAX_TICKS_PER_STEP = 8     # ticks one step() may run; a longer stall drops whole ticks (keeps the phase)
+TICK_HISTORY = 9000        # ticks whose durations are kept (5 min at 30 Hz)
 
 
 class World:
@@ -64,18 +66,21 @@ class World:
         params: search parameters of the online planner (default
             :func:`runtime.world.crowd.online_params`); policy: the crowd policy.
         capacity: character slots to start with (grows as needed).
+        job_slice: planner steps one goal's planning runs before it gives way to the goals
+            waiting behind it (round robin; None: each runs to its end, first come first served).
     """
 
     def __init__(self, library="default", world=None, roadmap=None, dt: float = 1.0 / 30.0,
                  budget_ms: float = 4.0, seed: int = 0, params: SearchParams | None = None,
-                 policy: CrowdPolicy | None = None, capacity: int = 64):
+                 policy: CrowdPolicy | None = None, capacity: int = 64, job_slice: int | None = None):
         from ..library import load_library
         for what, v, lo, hi in (("dt", dt, 1e-4, 1e4), ("budget_ms", budget_ms, 0.0, args.MAX_TIME * 1e3)):
             if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
                 raise TypeError(f"{what} must be a number, not {type(v).__name__}")
             if not (np.isfinite(v) and lo <= v <= hi):
                 raise ValueError(f"{what} must be finite, from {lo:g} to {hi:g}, got {v}")
-        for what, v, lo in (("seed", seed, 0), ("capacity", capacity, 1)):
+        for what, v, lo in (("seed", seed, 0), ("capacity", capacity, 1)) + ((("job_slice", job_slice, 1),)
+                                                                              if job_slice is not None else ()):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
                 raise TypeError(f"{what} must be an integer, not {type(v).__name__}")
             if v < lo:
@@ -96,7 +101,7 @@ class World:
                       "queue": 0, "ticks": 0, "plans_done": 0, "plans_failed": 0,
                       "plans_shifted": 0, "plans_redone": 0, "plans_retried": 0}
         self.crowd = CrowdSystem(self, self.graph, self.env, roadmap, budget_ms / 1000.0, self.rng, params, policy,
-                                 capacity)
+                                 capacity, job_slice)
         self.params = self.crowd.params
         self.flock_host = FlockHost(self.rng)
         self.tiling = TilingHost()
@@ -104,6 +109,8 @@ class World:
         self.flocks: list = self.flock_host.systems      # the FlockSystems (one per DDG)
         self.tilings: list = self.tiling.zones           # the TilingZones
         self.selected = None
+        self.ambient = None              # the AmbientLife of add_scenario_ambient, if any
+        self.tick_times = np.zeros(TICK_HISTORY)    # ms of the last ticks (ring, see tick_percentile)
         self._pose_batch = None          # render-side poses (joint_positions)
         self._pose_at = None
         self._pose_slots = None
@@ -139,7 +146,14 @@ class World:
             after = getattr(s, "after_tick", None)
             if after is not None:
                 after(self)
-        self.stats.update(tick_ms=(time.perf_counter() - t0) * 1000, ticks=self.stats["ticks"] + 1)
+        ms = (time.perf_counter() - t0) * 1000
+        self.tick_times[self.stats["ticks"] % TICK_HISTORY] = ms
+        self.stats.update(tick_ms=ms, ticks=self.stats["ticks"] + 1)
+
+    def tick_percentile(self, q: float) -> float:
+        """The ``q``-th percentile (0-100) of the last ticks' durations, ms (0 before any tick)."""
+        n = min(self.stats["ticks"], TICK_HISTORY)
+        return float(np.percentile(self.tick_times[:n], q)) if n else 0.0
 
     def step(self, real_dt: float) -> int:
         """Advance by ``real_dt`` seconds of real time; returns the ticks run (at most
@@ -320,7 +334,29 @@ class World:
             out["tiling ms"] = round(self.stats.get("tiling_ms", 0.0), 2)
         if self.flock_host.systems:
             out["flock agents"] = self.flock_host.agent_count()
+        for s in self.systems[3:]:          # added systems that report (e.g. the ambient people)
+            extra = getattr(s, "hud_stats", None)
+            if extra is not None:
+                out.update(extra())
+        out["p99 tick ms"] = round(self.tick_percentile(99), 1)
         out["time s"] = round(self.time, 1)
+        return out
+
+    def landmarks(self) -> dict:
+        """Named places worth looking at, name -> (x, y, z, radius): the ambient people's
+        busiest stretch ("plaza"), each tiling zone ("tiled") and the flocks ("flocks", where
+        they are now)."""
+        out = {}
+        if self.ambient is not None:
+            out["plaza"] = self.ambient.busiest()
+        for z in self.tiling.zones:
+            x0, z0, x1, z1 = z.bounds
+            out.setdefault("tiled", (0.5 * (x0 + x1), 0.0, 0.5 * (z0 + z1), 0.5 * math.hypot(x1 - x0, z1 - z0)))
+        if self.flock_host.systems:
+            p = self.flock_positions()[0]
+            if len(p):
+                c = p.mean(0)
+                out["flocks"] = (float(c[0]), float(c[1]), float(c[2]), float(np.linalg.norm(p - c, axis=1).max()))
         return out
 
     def select(self, i) -> None:
@@ -384,6 +420,32 @@ class World:
         ``spec.loaded`` by the caller, see ``authoring.commands.bake.load_sample``)."""
         for spec, ddg, pos, headings, regions in scenario_flock_starts(sc, self.env):
             self.add_flocks(ddg, pos, headings, regions, seed=spec.seed)
+
+    def add_scenario_ambient(self, sc, **options):
+        """Start the scenario's ``[ambient]`` people (:class:`~.ambient.AmbientLife`, added as a
+        system): in its region, out of every tiling zone (grown by 1.5 m), using the seats and
+        boxes no ``[[character]]`` goal names, and out of the rectangle round the characters'
+        starts and goals (grown by 2 m) for the scenario's duration. ``options`` go to
+        AmbientLife. Returns it (None without an ``[ambient]`` table)."""
+        from .ambient import AmbientLife
+        spec = getattr(sc, "ambient", None)
+        if spec is None or spec.count == 0:
+            return None
+        used = {c.start_marker for c in sc.characters} | {g.marker for c in sc.characters for g in c.goals}
+        env = self.environment
+        seats = sorted(m.path for m in env.markers_with_role("seat") if m.path not in used)
+        boxes = sorted(m.path for m in env.markers_with_role("box") if m.path not in used)
+        exclude = [(x0 - 1.5, z0 - 1.5, x1 + 1.5, z1 + 1.5) for x0, z0, x1, z1 in (t.bounds for t in sc.tilings)]
+        pts = [c.position for c in sc.characters] + [g.position for c in sc.characters for g in c.goals]
+        pts = np.array([p for p in pts if p is not None], float).reshape(-1, 2)
+        if len(pts):
+            lo, hi = pts.min(0) - 2.0, pts.max(0) + 2.0
+            options.setdefault("keep_clear", [((lo[0], lo[1], hi[0], hi[1]), sc.duration)])
+        life = AmbientLife(self, spec.count, seed=spec.seed, area=spec.bounds, exclude=exclude, seats=seats,
+                           boxes=boxes, linger=spec.linger, **options)
+        self.add_system(life)
+        self.ambient = life
+        return life
 
     def add_scenario_tiling(self, sc, libraries: dict | None = None) -> None:
         """Start the ``[[tiling]]`` zones of a scenario (:func:`~.scenario.scenario_tiling_zones`)."""

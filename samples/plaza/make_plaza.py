@@ -16,6 +16,16 @@ def marker(stage, path, role, x, z, heading_deg):
 
 
 ZONE = (14.0, 24.0, -5.0, 5.0)     # x0, x1, z0, z1 of the tiled interaction zone's fence
+# where the ambient people walk: inside the sky region's bounds, with no obstacle added, so the
+# square's roadmap (and with it the bake of the named characters) stays what it was
+AMBIENT = (-34.0, -34.0, 44.0, 34.0)   # x0, z0, x1, z1
+AMBIENT_COUNT = 300
+STALL_X = (-27.0, -16.0, -5.0, 6.0, 17.0, 28.0)   # market pitches (a crate each) along the north and south
+STALL_Z = 30.0
+# benches of three seats (x, z, heading the sitters face, degrees)
+BENCHES = [(-24.0, -8.0, 90.0), (-24.0, 8.0, 90.0), (24.0, -16.0, -90.0), (24.0, 16.0, -90.0),
+           (-8.0, -18.0, 0.0), (8.0, 18.0, 180.0), (-8.0, 18.0, 180.0), (8.0, -18.0, 0.0),
+           (-30.0, 0.0, 90.0), (30.0, 0.0, -90.0)]
 
 
 def region(stage, path, x0, z0, x1, z1):
@@ -64,15 +74,23 @@ def world():
     UsdGeom.Scope.Define(stage, "/World/Regions")
     region(stage, "/World/Regions/stage", x0 + 0.35, z0 + 0.35, x1 - 0.35, z1 - 0.35)
     region(stage, "/World/Regions/sky", -35.0, -35.0, 45.0, 35.0)
+    region(stage, "/World/Regions/ambient", *AMBIENT)
     UsdGeom.Scope.Define(stage, "/World/Seats")
     # benches on a ring around the fountain, sitters facing out
     for i in range(8):
         a = 2 * math.pi * (i + 0.5) / 8
         r = 4.2
         marker(stage, f"/World/Seats/s{i:02d}", "seat", r * math.sin(a), r * math.cos(a), math.degrees(a))
+    for b, (x, z, h) in enumerate(BENCHES):
+        r = math.radians(h)
+        for k in (-1, 0, 1):       # seats 1.4 m apart along the bench
+            marker(stage, f"/World/Seats/bench{b}_{k + 1}", "seat", x + 1.4 * k * math.cos(r), z - 1.4 * k * math.sin(r), h)
     UsdGeom.Scope.Define(stage, "/World/Boxes")
     for i in range(4):
         marker(stage, f"/World/Boxes/b{i}", "box", 7.6, -2.4 + 1.6 * i, -90.0)   # 2.2 m off the kiosk: room to turn round carrying
+    for i, x in enumerate(STALL_X):      # a crate at each market pitch, carried from pitch to pitch
+        marker(stage, f"/World/Boxes/stall_n{i}", "box", x, STALL_Z, 180.0)
+        marker(stage, f"/World/Boxes/stall_s{i}", "box", x, -STALL_Z, 0.0)
     UsdGeom.Scope.Define(stage, "/World/Spawns")
     for i in range(4):
         a = 2 * math.pi * i / 4
@@ -130,6 +148,9 @@ def scenario():
     # a flock of birds over the plaza (the same recording recipe as samples/flock_region_3d)
     lines += ["[[flock]]", 'name = "birds"', "ddg = { dim = 3, agents = 20, seconds = 150.0, seed = 1 }", "count = 2",
               'region = "/World/Regions/sky"', "altitude = [6.0, 40.0]", ""]
+    # people going about their day all over the square (runtime.world.ambient)
+    lines += ["[ambient]", f"count = {AMBIENT_COUNT}", "seed = 0", 'region = "/World/Regions/ambient"',
+              "linger = [20.0, 50.0]", ""]
     (HERE / "scenario.toml").write_text("\n".join(lines))
 
 
