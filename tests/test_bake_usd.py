@@ -353,3 +353,19 @@ def test_colliding_character_names_are_an_error(crowd_tracks, default_graph):
     tracks = {"a b": crowd_tracks["c"], "a_b": crowd_tracks["d"]}
     with pytest.raises(ValueError, match="'a b' and 'a_b' both map to the USD prim /World/Characters/a_b"):
         build_crowd_stage(tracks, default_graph, 30.0)
+
+
+def test_characters_added_to_a_stage_extend_its_time_range(crowd_tracks, default_graph, tmp_path):
+    """A second set of characters baked into the same stage (a bake's tiled zones) that runs
+    longer than the first stretches the stage's end time code over it, so every time sample is
+    inside the stage's range (the validator warns otherwise)."""
+    first = {k: crowd_tracks[k] for k in ("a", "d")}
+    stage = build_crowd_stage(first, default_graph, 30.0)
+    assert stage.GetEndTimeCode() == max(int(t.start_frame) + len(t) for t in first.values()) - 1
+    rng = np.random.default_rng(9)
+    longer = _synthetic(default_graph, rng, 150, 20)          # frames 20..169
+    build_crowd_stage({"tiled": longer}, default_graph, 30.0, stage=stage)
+    assert stage.GetEndTimeCode() == 169
+    out = tmp_path / "two.usdc"
+    save_stage(stage, out)
+    assert validate_stage(out) == []

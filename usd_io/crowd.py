@@ -361,7 +361,7 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
     each character has its own Skeleton (Blender 4.2 skins no mesh inside an instance). Either
     way each character gets its look from (``look_seed``, its name)
     (:func:`runtime.appearance.looks_for`)."""
-    n = max([len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
+    n = max([int(t.start_frame) + len(t) for t in tracks.values()] + ([num_frames] if num_frames else []))
     if clips_per is not None:
         if out_path is None:
             raise ValueError("clips_per needs out_path: the clip layers are written beside the stage")
@@ -371,6 +371,8 @@ def build_crowd_stage(tracks: dict, graph, fps: float, *, metadata: dict | None 
             raise ValueError("foot_lock=False is for single-layer stages: value-clip layers always lock feet")
     if stage is None:
         stage = new_stage(fps, 0, n - 1)
+    elif stage.GetEndTimeCode() < n - 1:      # characters added to a stage: its time range covers them too
+        stage.SetEndTimeCode(n - 1)
     world = UsdGeom.Xform.Define(stage, "/World")
     set_default_prim(stage, world.GetPrim())
     UsdGeom.Scope.Define(stage, CHARACTERS)
