@@ -124,12 +124,19 @@ class Reservations(SpaceTimeIndex):
             self._grid = (float(o[0]), float(o[1]), nx, nz, start, items)
         return self._grid
 
-    def _hold_hits(self, frames, xz, radius, margin, ignore_owner, first_only):
-        if not self._active.any():
-            return np.zeros(0, np.int64), np.zeros(0)
+    @staticmethod
+    def _query(frames, xz, radius):
+        """A query's arrays as the kernels take them: frames int64, xz and radius float64 and
+        contiguous, one radius per sample."""
         frames = np.asarray(frames, dtype=np.int64)
         xz = np.ascontiguousarray(xz, dtype=np.float64)
         radius = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, dtype=np.float64), frames.shape))
+        return frames, xz, radius
+
+    def _hold_hits(self, frames, xz, radius, margin, ignore_owner, first_only):
+        """(sample, owner) pairs of a query (:meth:`_query`'s arrays) against the active holds."""
+        if not self._active.any():
+            return np.zeros(0, np.int64), np.zeros(0)
         ig = -1 if ignore_owner is None else int(ignore_owner)
         from . import spacetime
         if _nb is not None and spacetime.ENABLED:
@@ -140,8 +147,9 @@ class Reservations(SpaceTimeIndex):
 
     # -- the index's queries, holds included ---------------------------------------------------
     def _hits(self, frames, xz, radius, margin, ignore_owner, first_only=False, compiled=None):
+        frames, xz, radius = self._query(frames, xz, radius)
         q, o = super()._hits(frames, xz, radius, margin, ignore_owner, first_only, compiled)
-        if len(self._holds) == 0 or len(np.asarray(frames)) == 0:
+        if len(self._holds) == 0 or len(frames) == 0:
             return q, o
         qh, oh = self._hold_hits(frames, xz, radius, margin, ignore_owner, first_only)
         if len(qh) == 0:
@@ -154,7 +162,7 @@ class Reservations(SpaceTimeIndex):
         out = super().any_overlap_runs(frames, xz, radius, counts, margin, ignore_owner)
         if len(np.asarray(frames)) and self._active.any():
             counts = np.asarray(counts, dtype=np.int64)
-            q, _ = self._hold_hits(frames, xz, radius, margin, ignore_owner, False)
+            q, _ = self._hold_hits(*self._query(frames, xz, radius), margin, ignore_owner, False)
             if len(q):
                 run = np.searchsorted(np.cumsum(counts), q, side="right")
                 out[run] = True

@@ -115,13 +115,15 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
         if hold:
             holds[ci] = (np.asarray(sc.characters[ci].position, float), radius, hold)
             ctx.index.hold(ci, *holds[ci])
+    held = HeldStarts(holds)
     results: dict[int, CharacterResult] = {}
     for ci in order:
         ctx.index.remove_owner(ci)          # its start hold (if any) gives way to its plan
         holds.pop(ci, None)
+        held.release(ci)
         # holds on the character's own goals give way while it is planned (a swap of places):
         # the one holding there, planned later, leaves before it arrives
-        freed = goal_holds(ctx, ci, holds)
+        freed = goal_holds(ctx, ci, held)
         for j in freed:
             ctx.index.release_hold(j)
         results[ci] = plan_one(ctx, results, ci, 0)
@@ -268,20 +270,41 @@ def start_hold(ctx: PlanContext, c) -> tuple[int, float]:
     return 0, radius
 
 
-def goal_holds(ctx: PlanContext, ci: int, holds: dict) -> list:
-    """The characters in ``holds`` ({owner: (xz, radius, until)}) whose held start is where
-    character ``ci`` must arrive: within the two bounding cylinders (and the margin) of one of
-    its goal positions."""
-    goals = [g.position for g in ctx.sc.characters[ci].goals if g.position is not None]
-    if not goals or not holds:
-        return []
-    goals = np.asarray(goals, float)
-    reach = ctx.lib.max_radius + ctx.params.margin
-    owners = np.fromiter(holds.keys(), dtype=np.int64, count=len(holds))
-    xz = np.array([h[0] for h in holds.values()], dtype=np.float64).reshape(-1, 2)
-    radius = np.fromiter((h[1] for h in holds.values()), dtype=np.float64, count=len(holds))
-    d = np.hypot(xz[:, None, 0] - goals[None, :, 0], xz[:, None, 1] - goals[None, :, 1]).min(axis=1)
-    return owners[d < reach + radius].tolist()
+def goal_holds(ctx: PlanContext, ci: int, holds) -> list:
+    """The characters in ``holds`` ({owner: (xz, radius, until)}, or :class:`HeldStarts`) whose
+    held start is where character ``ci`` must arrive: within the two bounding cylinders (and the
+    margin) of one of its goal positions."""
+    return (holds if isinstance(holds, HeldStarts) else HeldStarts(holds)).at_goals(ctx, ci)
+
+
+class HeldStarts:
+    """The held starts of a scenario as arrays, in the order of ``holds`` ({owner: (xz, radius,
+    until)}), with the ones released since (their characters planned) masked out -- so asking
+    who holds a character's goals costs one vectorized test, not a pass over a dict."""
+
+    def __init__(self, holds: dict):
+        self.owners = np.fromiter(holds.keys(), dtype=np.int64, count=len(holds))
+        self.xz = np.array([h[0] for h in holds.values()], dtype=np.float64).reshape(-1, 2)
+        self.radius = np.fromiter((h[1] for h in holds.values()), dtype=np.float64, count=len(holds))
+        self.live = np.ones(len(holds), dtype=bool)
+        self._row = {int(o): k for k, o in enumerate(self.owners)}
+
+    def release(self, owner: int) -> None:
+        k = self._row.get(int(owner))
+        if k is not None:
+            self.live[k] = False
+
+    def at_goals(self, ctx: PlanContext, ci: int) -> list:
+        """The live holders whose disc is within the two bounding cylinders (and the margin) of
+        one of character ``ci``'s goal positions."""
+        goals = [g.position for g in ctx.sc.characters[ci].goals if g.position is not None]
+        if not goals or not self.live.any():
+            return []
+        goals = np.asarray(goals, float)
+        reach = ctx.lib.max_radius + ctx.params.margin
+        xz, radius = self.xz[self.live], self.radius[self.live]
+        d = np.hypot(xz[:, None, 0] - goals[None, :, 0], xz[:, None, 1] - goals[None, :, 1]).min(axis=1)
+        return self.owners[self.live][d < reach + radius].tolist()
 
 
 def standing_radius(graph, still) -> float:
