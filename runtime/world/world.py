@@ -334,7 +334,7 @@ class World:
             out["tiling ms"] = round(self.stats.get("tiling_ms", 0.0), 2)
         if self.flock_host.systems:
             out["flock agents"] = self.flock_host.agent_count()
-        for s in self.systems[3:]:          # added systems that report (e.g. the ambient people)
+        for s in self.systems:              # systems that report (e.g. the ambient people)
             extra = getattr(s, "hud_stats", None)
             if extra is not None:
                 out.update(extra())
