@@ -30,6 +30,7 @@ PACK_KIND = "roadmap"
 PACK_VERSION = 1
 # Extra nodes tried (nearest first) when an end point sees no node within connect_distance.
 FALLBACK_NEIGHBOURS = 64
+SEARCH_BOUND = 1.5         # a query first searches paths up to this times the straight distance (+ 2 connect distances)
 SHORTCUT_EXTRA = 0.3      # m: straight and string-pulled segments keep radius + this clearance
 PUSH_STEP = 0.1           # m: steps of moving a way point away from an obstacle (Roadmap._push_off)
 PUSH_ITERS = 8            # ... at most this many per way point
@@ -60,7 +61,7 @@ class Roadmap:
         self.env_fingerprint = env_fingerprint
         self.meta = dict(meta or {})
         self._tree = None
-        self._coo = None
+        self._csr = None
 
     # -- structure ------------------------------------------------------------------------------
     @property
@@ -208,30 +209,55 @@ class Roadmap:
             raise RoadmapError(f"no path {where}: the start sees no roadmap node")
         if len(ng) == 0:
             raise RoadmapError(f"no path {where}: the goal sees no roadmap node")
-        from scipy.sparse import csr_matrix
-        from scipy.sparse.csgraph import dijkstra
-        M = self.num_nodes
-        S, G = M, M + 1
-        if self._coo is None:
-            self._coo = (np.repeat(np.arange(M), np.diff(self.indptr)), self.indices, self.weights)
-        r0, c0, w0 = self._coo
-        rows = np.concatenate([r0, np.full(len(ns), S), ns, ng, np.full(len(ng), G)])
-        cols = np.concatenate([c0, ns, np.full(len(ns), S), np.full(len(ng), G), ng])
-        # explicit zero-length edges must stay edges: lengths get a tiny floor
-        w = np.maximum(np.concatenate([w0, ds, ds, dg, dg]), 1e-12)
-        A = csr_matrix((w, (rows, cols)), shape=(M + 2, M + 2))
-        dist, pred = dijkstra(A, directed=True, indices=S, return_predecessors=True)
-        if not np.isfinite(dist[G]):
+        # a search bounded by a generous length first (the nodes it settles are exact), the
+        # whole graph only when the bound was too short
+        bound = SEARCH_BOUND * float(np.hypot(*(g - s))) + 2.0 * self.connect_distance
+        dist, pred = self._dijkstra_from(ns, ds, bound)
+        reach = dist[ng] + np.maximum(dg, 1e-12)
+        if not reach.min() <= bound:
+            dist, pred = self._dijkstra_from(ns, ds, np.inf)
+            reach = dist[ng] + np.maximum(dg, 1e-12)
+        if not np.isfinite(reach.min()):
             raise RoadmapError(f"no path {where}: they lie in parts of the free space the roadmap does not connect")
-        path = [G]
+        M = self.num_nodes
+        S = M
+        path = [int(ng[int(np.argmin(reach))])]
         while path[-1] != S:
             path.append(int(pred[path[-1]]))
+        path = [M + 1] + path
         path = path[::-1]
         pts = np.concatenate([s[None], self.nodes[path[1:-1]], g[None]])
         if shortcut and len(pts) > 2:
             pts = self._shortcut(env, pts, rs, rg)
             pts = self._push_off(env, pts, rs, rg)
         return pts
+
+    def _dijkstra_from(self, ns: np.ndarray, ds: np.ndarray, limit: float):
+        """Shortest distances and predecessors over the roadmap from a virtual start node
+        (index ``num_nodes``) joined to the nodes ``ns`` by edges of lengths ``ds``.
+
+        The roadmap's CSR arrays are kept once with room after them for the start's row, so a
+        query builds no matrix of the whole graph (the graph is large: every node joins every
+        visible node within ``connect_distance``). Nodes farther than ``limit`` are left
+        unsettled (distance inf)."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import dijkstra
+        M, nnz, n = self.num_nodes, len(self.indices), len(ns)
+        if self._csr is None or len(self._csr[1]) < nnz + n:
+            room = max(n, 256, 0 if self._csr is None else 2 * (len(self._csr[1]) - nnz))
+            data = np.empty(nnz + room)
+            data[:nnz] = np.maximum(self.weights, 1e-12)     # explicit zero lengths stay edges
+            indices = np.empty(nnz + room, dtype=np.int32)
+            indices[:nnz] = self.indices
+            indptr = np.empty(M + 2, dtype=np.int32)
+            indptr[:M + 1] = self.indptr
+            self._csr = (data, indices, indptr)
+        data, indices, indptr = self._csr
+        data[nnz:nnz + n] = np.maximum(ds, 1e-12)
+        indices[nnz:nnz + n] = ns
+        indptr[M + 1] = nnz + n
+        A = csr_matrix((data[:nnz + n], indices[:nnz + n], indptr), shape=(M + 1, M + 1), copy=False)
+        return dijkstra(A, directed=True, indices=M, return_predecessors=True, limit=limit)
 
     def _push_off(self, env: Environment, pts: np.ndarray, rs: float, rg: float) -> np.ndarray:
         """Interior way points moved up the distance field's gradient, in steps of at most

@@ -69,6 +69,8 @@ def _blocked(lo, shape, xz: np.ndarray, reach: np.ndarray) -> np.ndarray:
     cells of each one's bounding square)."""
     nx, nz = shape
     out = np.zeros(shape, dtype=bool)
+    near = np.all((xz + reach[:, None] > lo - CELL) & (xz - reach[:, None] < lo + CELL * np.array(shape)), axis=1)
+    xz, reach = xz[near], reach[near]
     if len(xz) == 0:
         return out
     k = int(np.ceil(reach.max() / CELL))
