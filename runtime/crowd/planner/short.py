@@ -17,7 +17,8 @@ tested exactly as the randomized search's (:meth:`.search.RandomizedSearch.accep
 shallowest depth first, so the motion found has few clips.
 
 Limits: per depth, ``SHORT_BEAM`` x (out-degree) beginnings x (endings of a node, at most
-``MAX_ENDINGS``) joins are costed (64 x 126 x 256, about two million, on the default library; one node's joins per step);
+``MAX_ENDINGS``) joins are costed (64 x 126 x 256, about two million, on the default library;
+at most ``JOINS_PER_STEP`` per planner step);
 the search runs when the goal is within ``SHORT_DISTANCE`` of the start.
 """
 from __future__ import annotations
@@ -27,13 +28,15 @@ import numpy as np
 from ...motion.planar import compose
 from .types import Step
 
-__all__ = ["short_move", "SHORT_DISTANCE", "SHORT_DEPTH", "SHORT_BEAM", "ENDING_CLIPS", "MAX_ENDINGS"]
+__all__ = ["short_move", "SHORT_DISTANCE", "SHORT_DEPTH", "SHORT_BEAM", "ENDING_CLIPS", "MAX_ENDINGS",
+           "JOINS_PER_STEP"]
 
 SHORT_DISTANCE = 3.5   # m: goals closer than this to the start are tried with the short search first
 SHORT_DEPTH = 12       # clips in the beginning at most
 SHORT_BEAM = 64        # beginnings kept per depth
 ENDING_CLIPS = 3       # clips in an ending at most
 MAX_ENDINGS = 256      # endings kept per node (the shortest of each distinct transform first)
+JOINS_PER_STEP = 16384 # joins costed per planner step (about 2 ms)
 REACH_SLACK = 1.5      # m: a beginning stays in the beam while its end is at most this much further
 #                        from the goal than the start was
 
@@ -99,14 +102,17 @@ def short_move(search, travel: int, max_accept: int = 6):
         for n in np.unique(node):
             if int(n) not in ends_of:
                 continue
-            yield Step.COSTS
-            rr = np.flatnonzero(node == n)
             E, Tn, Dn = ends_of[int(n)]
-            cost, raw = _joined_costs(p.alpha, end[rr], T[rr], goal, search.window_rel, Tn, Dn)
-            best_raw[rr] = raw.min(axis=1)
-            r_ok, k_ok = np.nonzero(cost <= eps_p)
-            if len(r_ok):
-                found.append((cost[r_ok, k_ok], rr[r_ok], E[k_ok]))
+            rows_n = np.flatnonzero(node == n)
+            step = max(1, JOINS_PER_STEP // len(Tn))
+            for c0 in range(0, len(rows_n), step):
+                yield Step.COSTS
+                rr = rows_n[c0:c0 + step]
+                cost, raw = _joined_costs(p.alpha, end[rr], T[rr], goal, search.window_rel, Tn, Dn)
+                best_raw[rr] = raw.min(axis=1)
+                r_ok, k_ok = np.nonzero(cost <= eps_p)
+                if len(r_ok):
+                    found.append((cost[r_ok, k_ok], rr[r_ok], E[k_ok]))
         if found:
             fc, fr, fe = (np.concatenate(x) for x in zip(*found))
             best = np.argsort(fc, kind="stable")[:max_accept]
