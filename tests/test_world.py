@@ -290,6 +290,39 @@ def test_planning_stops_before_a_step_that_does_not_fit(default_graph, monkeypat
     assert steps[long_ticks[-1] + 1:].max() >= 2
 
 
+def test_the_other_systems_work_comes_out_of_the_planning_budget(default_graph, monkeypatch):
+    """The budget counts from the tick's start: a system that spends 3 of a 4 ms budget leaves
+    the planner one 1 ms step a tick (the first step always runs); without it, three."""
+    import runtime.world.crowd as W
+    import runtime.world.planning as P
+    import runtime.world.world as WW
+    clock = [0.0]
+    monkeypatch.setattr(P.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(WW.time, "perf_counter", lambda: clock[0])
+
+    def fake_run(self, start, goal, rng, name="", **kw):
+        for _ in range(400):
+            clock[0] += 0.001
+            yield
+        raise RuntimeError("out of fake steps")
+    monkeypatch.setattr(W.SegmentPlanner, "run", fake_run)
+
+    def steps_per_tick(busy_s):
+        w = World(default_graph, budget_ms=4.0)
+        w.add_system(lambda world: clock.__setitem__(0, clock[0] + busy_s))
+        w.spawn("a", (0.0, 0.0))
+        w.go_to("a", (3.0, 3.0))
+        out = []
+        for _ in range(12):
+            t0 = clock[0]
+            w.tick()
+            out.append((w.stats["plan_steps"], clock[0] - t0))
+        return out[6:]
+    quiet, busy = steps_per_tick(0.0), steps_per_tick(0.003)
+    assert all(n == 3 for n, _ in quiet)
+    assert all(n == 1 for n, _ in busy) and all(abs(t - 0.004) < 1e-9 for _, t in busy)
+
+
 def test_rendered_joint_positions_follow_the_exact_poses(default_graph):
     """joint_positions (what the viewer draws, the table evaluator pushed once per tick) agrees
     with the exact poses, between ticks too, and across spawns and removals."""

@@ -402,10 +402,14 @@ class CrowdSystem:
 
     # -- the tick ------------------------------------------------------------------------------------------
     def tick(self, world) -> None:
-        """Before the clock advances: apply queued commands, then planner steps under the budget."""
+        """Before the clock advances: apply queued commands."""
         while self.commands:
             self.apply(self.commands.popleft())
-        self.queue.run(self.stats)
+
+    def plan(self, deadline: float) -> None:
+        """Planner steps until ``deadline`` (``time.perf_counter()``; the World calls this after
+        every system's tick, so the budget is what the tick's other work left of it)."""
+        self.queue.run(self.stats, deadline)
 
     def after_tick(self, world) -> None:
         """After the clock advanced: every read head moves to the new frame; buffers running low

@@ -152,10 +152,13 @@ class PlanningQueue:
         except Exception as e:
             self._failed(c, f"could not use the plan: {e}", pop=False)
 
-    def run(self, stats: dict) -> None:
-        """Planner steps under the per-tick budget (see the module docstring); writes
+    def run(self, stats: dict, deadline: float | None = None) -> None:
+        """Planner steps under the per-tick budget (see the module docstring) until
+        ``deadline`` (a ``time.perf_counter()`` instant; default: the budget from now); writes
         ``plan_cpu_ms`` and ``plan_steps`` into ``stats``."""
         t0 = time.perf_counter()
+        if deadline is None:
+            deadline = t0 + self.budget
         c0 = time.thread_time()
         steps = 0
         while True:
@@ -165,7 +168,7 @@ class PlanningQueue:
                 kind, run = self.next_kind, self._advance
             else:
                 break
-            if steps and (time.perf_counter() - t0) + self.costs.predict(kind) > self.budget:
+            if steps and time.perf_counter() + self.costs.predict(kind) > deadline:
                 break
             ts = time.perf_counter()
             run()

@@ -4,10 +4,12 @@ The tick::
 
     accumulate real time; for each whole dt (runtime.clock.FixedStep):
         every system's tick, in order:
-            crowd:   apply queued commands; planner steps under the per-tick budget
+            crowd:   apply queued commands
             flocks:  advance each flock along its DDG walk
             tiling:  extend each tiling zone's horizon with new patch instances
             (systems added with add_system, in the order added)
+        planner steps until the per-tick budget, counted from the tick's start, is spent
+        (the other systems' work comes out of it; the first step always runs)
         the clock advances one frame
         every system's after_tick (the crowd: read heads, idle refills, arrival events)
     render: poses interpolated between the last two ticks, all characters in one pass
@@ -61,7 +63,8 @@ class World:
             ``usd_io.world.read_world(path)``), or None for open ground.
         roadmap: the environment's roadmap (:class:`runtime.crowd.roadmap.Roadmap`), or None.
         dt: tick length in seconds.
-        budget_ms: planning time per tick (milliseconds).
+        budget_ms: time per tick for the tick's work and planning (milliseconds): the planner
+            steps until this much has passed since the tick began (at least one step).
         seed: the random stream of the planner and of unseeded flocks.
         params: search parameters of the online planner (default
             :func:`runtime.world.crowd.online_params`); policy: the crowd policy.
@@ -137,10 +140,10 @@ class World:
         """One fixed step of every system (see the module docstring)."""
         t0 = time.perf_counter()
         for s in self.systems:
-            ts = time.perf_counter()
             s.tick(self) if hasattr(s, "tick") else s(self)
-            if s is self.crowd:
-                self.stats["plan_ms"] = (time.perf_counter() - ts) * 1000
+        ts = time.perf_counter()
+        self.crowd.plan(t0 + self.crowd.queue.budget)
+        self.stats["plan_ms"] = (time.perf_counter() - ts) * 1000
         self.frame += 1
         for s in self.systems:
             after = getattr(s, "after_tick", None)
