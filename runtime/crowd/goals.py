@@ -47,6 +47,7 @@ class RungBudgetSpent(Exception):
 
 LATE_SHIFTS = (3.0, 8.0, 15.0)   # s the window is moved later, in turn, for a late arrival
 RELAXED_EPS = (2.0, 4.0)         # eps scales tried, in turn, for a relaxed adjustment
+LANE_BATCH = 8                   # waits tested per query in lane_clear_delay
 LANE_RADIUS = 0.5                # m: the bounding cylinder of a walk in lane_clear_delay's straight proxy
 
 
@@ -142,12 +143,20 @@ def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3,
     b = np.asarray(goal.position, float)
     n = int(np.hypot(*(b - a)) / speed * fps) + 1
     xz = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    delays = []
     d = 0.0
     while cfg.frame + (d + 2.0) * fps + n < n_total:
-        f0 = cfg.frame + int(round(d * fps))
-        if index.first_overlap(f0 + np.arange(n), xz, radius) < 0:
-            return d
+        delays.append(d)
         d += step
+    # LANE_BATCH waits per query (one walk sample each per frame of the walk)
+    for k in range(0, len(delays), LANE_BATCH):
+        ds = delays[k:k + LANE_BATCH]
+        f0 = cfg.frame + np.rint(np.multiply(ds, fps)).astype(np.int64)
+        frames = (f0[:, None] + np.arange(n)[None]).ravel()
+        hit = index.any_overlap_runs(frames, np.tile(xz, (len(ds), 1)), np.full(len(frames), radius),
+                                     np.full(len(ds), n))
+        if not hit.all():
+            return ds[int(np.argmin(hit))]
     return None
 
 
