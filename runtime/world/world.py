@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 
+from ..compiled import preload as preload_kernels
 from ..clock import FixedStep
 from ..crowd.planner import CrowdPolicy, SearchParams
 from ..crowd.tracks import evaluate_poses
@@ -116,6 +117,7 @@ class World:
         self.tick_times = np.zeros(TICK_HISTORY)    # ms of the last ticks (ring, see tick_percentile)
         self._pose_batch = None          # render-side poses (joint_positions)
         self._pose_at = None
+        preload_kernels()                # compiled kernels loaded now, not inside a tick
         self._pose_slots = None
 
     # -- systems and the clock ---------------------------------------------------------------------------
