@@ -445,6 +445,8 @@ def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False,
                              collide_runs=lambda f, xz, r, cnt: index.any_overlap_runs(f, xz, r, cnt),
                              roadmap=ctx.roadmap, env=ctx.env, params=params)
     planner.cache = ctx.cache
+    if ctx.policy.bend_waypoints and hasattr(index, "standing"):
+        planner.standing = lambda f: index.standing(f, ignore_owner=ci)
     start = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
     cfg = start
     parts, arrivals, goals, warnings, ladder = [], [], [], [], []

@@ -106,6 +106,14 @@ class Reservations(SpaceTimeIndex):
         self._active[k] = True
         self.max_radius = max(self.max_radius, float(radius))
 
+    def standing(self, frame: int, ignore_owner: int | None = None):
+        """(xz (M, 2), radius (M,)) of the holds that last from ``frame`` to the end: the
+        characters who stand still there (not planned yet)."""
+        h = self._active & (self._holds[:, 4] >= self.n_frames)
+        if ignore_owner is not None:
+            h &= self._holds[:, 3] != ignore_owner
+        return self._holds[h, :2], self._holds[h, 2]
+
     def release_hold(self, owner: int) -> None:
         """Drop ``owner``'s hold (if any)."""
         k = self._hold_of.get(int(owner))

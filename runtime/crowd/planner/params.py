@@ -75,6 +75,8 @@ class CrowdPolicy:
     runtime World."""
 
     passes: int = 3                # planning passes; passes after the first repair failed characters
+    bend_waypoints: bool = True    # way points bend round the characters who stand still (starts held
+    #                                for characters not planned yet; runtime.crowd.planner.bend)
     space_time_seeds: bool = False  # seeds follow a route in space and time around the characters
     #                                planned before when a walk along the static route runs into one
     order: str = "file"            # planning order: "file", "longest", "shortest", "earliest"

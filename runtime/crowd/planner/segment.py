@@ -28,6 +28,7 @@ import numpy as np
 from ...motion.graph import STATES
 from ...motion.planar import compose, compose1
 from . import kernels
+from .bend import bend_around
 from .collision import Collider
 from .library import MotionLibrary
 from .motion_cache import task_key
@@ -42,6 +43,7 @@ from .waypoints import segment_waypoints
 __all__ = ["SegmentPlanner", "run_to_completion", "DETOURS"]
 
 DETOURS = (1.2, 2.2, 3.2)      # m beside a collision where new way points are tried, each side in turn
+BEND_RADIUS = 0.5              # m: a walking character's disc (plus the margin) that way points bend round
 
 
 def run_to_completion(gen):
@@ -67,6 +69,8 @@ class SegmentPlanner:
             None: motions found for other characters' same tasks, tried before a search.
         compiled: splice costs, seed lookahead and collision gathers by the numba kernels.
         waited: idle clips the last seed of :meth:`greedy` inserted for planned characters.
+        standing: ``standing(frame) -> (xz (M, 2), radius (M,))``: characters who stand still
+            from ``frame`` on (not planned yet), which the way points bend round; or None.
     """
 
     def __init__(self, lib: MotionLibrary, static=None, collide=None, roadmap=None, env=None,
@@ -80,6 +84,7 @@ class SegmentPlanner:
         self.compiled = kernels.ENABLED
         self.cache = None
         self.waited = 0
+        self.standing = None
 
     @property
     def hold(self):
@@ -101,8 +106,14 @@ class SegmentPlanner:
         return STATES.index("carrying") if s0 == STATES.index("carrying") else STATES.index("walking")
 
     def waypoints(self, start: Config, goal: Goal) -> np.ndarray:
-        """The segment's way points (:func:`.waypoints.segment_waypoints`)."""
-        return segment_waypoints(self.lib, self.p, self.roadmap, self.env, start, goal)
+        """The segment's way points (:func:`.waypoints.segment_waypoints`), bent around the
+        discs of :attr:`standing` (:func:`.bend.bend_around`)."""
+        pts = segment_waypoints(self.lib, self.p, self.roadmap, self.env, start, goal)
+        if self.standing is not None:
+            xz, r = self.standing(start.frame)
+            if len(xz):
+                pts = bend_around(pts, xz, r, BEND_RADIUS + self.p.margin, self.env)
+        return pts
 
     def seed(self, start_node: int, start_cfg, frame0: int, waypoints, final_heading, travel: int, target_nodes,
              reverse: bool, time_budget: float | None = None, reserve: float = 0.0) -> GreedySeed:
