@@ -368,3 +368,22 @@ def test_a_second_character_with_the_same_task_reuses_the_first_ones_motion(defa
         gx = 1.0 if e.character == "a" else 5.0
         assert np.hypot(r[0] - gx, r[1] - 6.0) < 1e-6
         assert abs((r[2] - math.radians(30) + math.pi) % (2 * math.pi) - math.pi) < 1e-6
+
+
+def test_planning_view_standing_lists_the_others_who_stand_until_planned(default_graph):
+    """The discs the way points bend round in the World: every other character standing idle
+    (or queued), at its place; one walking a planned motion is not among them."""
+    from runtime.world.occupancy import PlanningView
+    w = World(default_graph, seed=3, budget_ms=1e6)
+    for name, p in (("a", (0.0, 0.0)), ("b", (4.0, 0.0)), ("c", (0.0, 5.0))):
+        w.spawn(name, p)
+    w.tick()
+    xz, r = PlanningView(w.crowd, w.slot("a")).standing(w.frame)
+    assert sorted(map(tuple, np.round(xz, 1))) == [(0.0, 5.0), (4.0, 0.0)]
+    assert np.all(r > 0.1) and np.all(r < 1.0)
+    w.go_to("b", (4.0, 8.0))
+    for _ in range(40):
+        w.tick()
+    assert w.state("b") is CharacterState.MOVING
+    xz, _ = PlanningView(w.crowd, w.slot("a")).standing(w.frame)
+    assert sorted(map(tuple, np.round(xz, 1))) == [(0.0, 5.0)]

@@ -297,7 +297,10 @@ class CrowdSystem:
                             message="the arrival window has passed; planning without it")
             goal = Goal(goal.position, goal.heading, goal.nodes, None, goal.label)
         n = self.params.n_max
-        ladder = SegmentLadder(PlanningView(self, c.slot), planner, c.name, self.rng, n,
+        view = PlanningView(self, c.slot)
+        if self.policy.bend_waypoints:
+            planner.standing = view.standing
+        ladder = SegmentLadder(view, planner, c.name, self.rng, n,
                                min(self.policy.retry_n_max, n))
         job = ladder.plan(start, goal, 0)
         c.job_handoff = start

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+STANDING_STATES = ("idle", "queued")   # CharacterState values of characters who stand until planned
+
 __all__ = ["IdleStretches", "Occupancy", "PlanningView"]
 
 
@@ -168,6 +170,18 @@ class PlanningView:
         pb = crowd.playback
         self.n_total = int(crowd.world.frame + pb.size - 1)   # as far as a buffer reaches
         self.index = self
+
+    def standing(self, frame: int):
+        """(xz (M, 2), radius (M,)) of the other characters who stand where they are until
+        they are planned (no goal, or one waiting for the planner): the discs the way points
+        bend round (:attr:`runtime.crowd.planner.SegmentPlanner.standing`)."""
+        crowd, pb = self.crowd, self.crowd.playback
+        s = np.flatnonzero(pb.active)
+        s = s[s != self.owner]
+        waiting = np.fromiter((crowd.slots[k].state.value in STANDING_STATES for k in s), dtype=bool, count=len(s))
+        s = s[waiting]
+        f = np.minimum(frame, pb.tail[s])
+        return pb.buf_root[s, f % pb.size, :2].astype(np.float64), self.crowd.occupancy.stay_r[pb.tail_node[s]]
 
     # -- the space-time queries of the planner (the World's occupancy stands in for the index) --
     def overlaps(self, frames, xz, radius):
