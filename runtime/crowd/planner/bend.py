@@ -27,7 +27,7 @@ BEND_EXTRA = 0.25    # m added to the clearance for the inserted point (a stride
 
 def _first_hit(a, b, xz, reach, skip):
     """The disc that the segment ``a``-``b`` passes within ``reach`` of first (nearest ``a``
-    along it): (index, parameter t, foot point) or None."""
+    along it): (index, foot point) or None."""
     ab = b - a
     den = max(float(ab @ ab), 1e-12)
     t = np.clip(((xz - a) @ ab) / den, 0.0, 1.0)
@@ -37,7 +37,7 @@ def _first_hit(a, b, xz, reach, skip):
     if len(hit) == 0:
         return None
     k = hit[np.argmin(t[hit])]
-    return int(k), float(t[k]), foot[k]
+    return int(k), foot[k]
 
 
 def bend_around(points, xz, r, radius: float, env=None) -> np.ndarray:
@@ -70,7 +70,7 @@ def bend_around(points, xz, r, radius: float, env=None) -> np.ndarray:
         if hit is None:
             out.append(todo.pop())
             continue
-        k, _, foot = hit
+        k, foot = hit
         c = xz[k]
         away = foot - c
         n = float(np.hypot(*away))
