@@ -1,6 +1,8 @@
-"""The backdrop, painted first and without depth (everything else stands on or above the
-ground): a sky gradient above the horizon line, the ground, the world's "plaza" (its bounds)
-in a lighter tone, and a line grid (1 m over the plaza, 5 m around it) fading with distance.
+"""The backdrop, painted last of the opaque things and at the far plane, so only on pixels
+nothing else covers (everything else stands on or above the ground): a sky gradient above the
+horizon line, the ground, the world's "plaza" (its bounds) in a lighter tone, and a line grid
+(1 m over the plaza, 5 m around it) fading with distance. Its parts lie in one plane and are
+layered in the order they are painted (all at the far plane's depth, which they do not write).
 
 The ground is a static plane around the world's centre; lighting is per vertex (the normal is
 constant, and the lighting is linear in the colour) and fog goes by view depth, which is linear
@@ -137,8 +139,8 @@ class Backdrop:
         self.m_major.upload(major)
 
     def draw(self, view: np.ndarray, vp: np.ndarray, eye: np.ndarray, dist: float, shade: dict) -> None:
-        """Paint sky, ground, 5 m lines, plaza and 1 m lines in that order, depth test off
-        (left on afterwards).
+        """Paint sky, ground, 5 m lines, plaza and 1 m lines in that order, at the far plane
+        where nothing nearer was drawn (depth test on and left on, depth writes left on).
 
         Args:
             view, vp: the camera's view and view-projection matrices.
@@ -146,7 +148,10 @@ class Backdrop:
             dist: the eye's distance from the world's centre (grid fade distances grow with it).
             shade: :func:`runtime.viewer.lighting.shade_uniforms`.
         """
-        gl.glDisable(gl.GL_DEPTH_TEST)
+        gl.glEnable(gl.GL_DEPTH_TEST)
+        gl.glDepthFunc(gl.GL_LEQUAL)
+        gl.glDepthMask(gl.GL_FALSE)
+        gl.glDepthRange(1.0, 1.0)                 # every fragment at the far plane: drawn where the depth is clear
         p = self.p_sky.use()
         horizon = eye + 1e4 * horizontal_forward(view)
         hc = vp @ np.r_[horizon, 1.0]
@@ -165,4 +170,5 @@ class Backdrop:
         self.m_plaza.draw()
         self.p_flat.use().set(u_ground=PLAZA, **grid)      # 1 m lines on the plaza
         self.m_lines.draw()
-        gl.glEnable(gl.GL_DEPTH_TEST)
+        gl.glDepthRange(0.0, 1.0)
+        gl.glDepthMask(gl.GL_TRUE)

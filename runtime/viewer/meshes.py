@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 import numpy as np
 
-__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "triangulate", "posed_copies",
-           "decal_vertices", "CARDBOARD"]
+__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "split_floor", "triangulate",
+           "posed_copies", "decal_vertices", "CARDBOARD", "FLOOR_MAX_Y"]
 
 
 # -- capsule -----------------------------------------------------------------------------------------
@@ -261,6 +261,23 @@ def environment_mesh(env, heights=None, default_height: float = 1.0, draw_boxes:
             mb.flat(m.polygon, 0.006, REGION_FILL)
             mb.outline(m.polygon, 0.009, 0.08, REGION * 0.8)
     return mb.build()
+
+
+FLOOR_MAX_Y = 0.05         # flat triangles at most this high are floor markings
+
+
+def split_floor(mesh: np.ndarray):
+    """Split triangles (V, 9) of :func:`environment_mesh` into the floor markings (flat,
+    facing up, at most :data:`FLOOR_MAX_Y` high: spawn discs, region fills and outlines) and
+    the rest. The floor comes highest first (stable within a height), so that where markings
+    overlap the topmost one is drawn first: the renderer shades each floor pixel once.
+
+    Returns (floor (F, 9), rest (V - F, 9))."""
+    tri = np.asarray(mesh).reshape(-1, 3, mesh.shape[-1])
+    flat = (tri[:, :, 1].max(axis=1) <= FLOOR_MAX_Y) & (tri[:, :, 4].min(axis=1) > 0.999)
+    floor = tri[flat]
+    floor = floor[np.argsort(-floor[:, 0, 1], kind="stable")]
+    return floor.reshape(-1, mesh.shape[-1]), tri[~flat].reshape(-1, mesh.shape[-1])
 
 
 # -- per frame -------------------------------------------------------------------------------------

@@ -62,7 +62,8 @@ class Viewer:
         if window is None:
             # 8 bits per channel: without asking, headless EGL picks RGB565, which llvmpipe fills
             # far more slowly than its native BGRA8 (and which bands the colours)
-            config = gl.Config(double_buffer=True, depth_size=24, major_version=3, minor_version=3,
+            # a stencil buffer lets overlapping floor markings shade each pixel once (render.py)
+            config = gl.Config(double_buffer=True, depth_size=24, stencil_size=8, major_version=3, minor_version=3,
                                forward_compatible=True, red_size=8, green_size=8, blue_size=8, alpha_size=8)
             try:
                 window = pyglet.window.Window(width, height, caption=caption, resizable=True, config=config,
