@@ -57,6 +57,7 @@ class Renderer:
         self.backdrop = Backdrop()
         self.characters = CharacterPass(self.style)
         self.p_lit = Program.from_files("lit.vert", "lit.frag", "lit")
+        self.p_floor = Program.from_files("floor.vert", "floor.frag", "floor")
         self.p_decal = Program.from_files("decal.vert", "decal.frag", "decal")
         lit = [(0, 3), (1, 3), (2, 3)]
         self.m_floor = Mesh(lit, usage=gl.GL_STATIC_DRAW)
@@ -96,8 +97,8 @@ class Renderer:
         """The character pass alone (depth test on): see :meth:`CharacterPass.draw`."""
         self.characters.draw(view, proj, width, height, positions, selected, fog)
 
-    def _draw_lit(self, mesh: Mesh, vp, eye, shade: dict, vertices=None) -> None:
-        p = self.p_lit.use()
+    def _draw_lit(self, mesh: Mesh, vp, eye, shade: dict, vertices=None, program=None) -> None:
+        p = (program or self.p_lit).use()
         p.set(u_vp=vp, u_eye=tuple(eye), **shade)
         if vertices is not None:
             mesh.upload(vertices)
@@ -138,7 +139,7 @@ class Renderer:
             gl.glEnable(gl.GL_STENCIL_TEST)
             gl.glStencilFunc(gl.GL_EQUAL, 0, 0xFF)
             gl.glStencilOp(gl.GL_KEEP, gl.GL_KEEP, gl.GL_INCR)
-            self._draw_lit(self.m_floor, vp, eye, shade)
+            self._draw_lit(self.m_floor, vp, eye, shade, program=self.p_floor)
             gl.glDisable(gl.GL_STENCIL_TEST)
         if self.m_env.count:
             self._draw_lit(self.m_env, vp, eye, shade)
