@@ -70,6 +70,15 @@ if AVAILABLE:
                 for j in range(J):
                     out[k, i, j] = p[k, i, j] + alpha * (q[k, i, j] - p[k, i, j])
 
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _lerp_serial(p, q, alpha, out):  # pragma: no cover - compiled
+        n = p.shape[1]
+        J = p.shape[2]
+        for i in range(n):
+            for k in range(3):
+                for j in range(J):
+                    out[k, i, j] = p[k, i, j] + alpha * (q[k, i, j] - p[k, i, j])
+
 
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _skel_arrays(rot, height, offsets, fa, fb, t, root, trans, quats, rootv):  # pragma: no cover
@@ -324,9 +333,15 @@ def blend_place(local, fa, fb, t, root, out):
     return out
 
 
+LERP_SERIAL_MAX = 1 << 18   # elements; up to this a frame's interpolation is one thread's
+
+
 def lerp(p, q, alpha: float, out):
-    """``out = p + alpha (q - p)`` over (3, n, J) float32 arrays, in one parallel pass."""
-    _lerp(p, q, np.float32(alpha), out)
+    """``out = p + alpha (q - p)`` over (3, n, J) float32 arrays, in one pass: parallel over
+    characters above :data:`LERP_SERIAL_MAX` elements, else on the calling thread (a few
+    hundred characters take microseconds, and waking the worker threads on a busy machine
+    can take milliseconds; this runs every frame)."""
+    (_lerp if p.size > LERP_SERIAL_MAX else _lerp_serial)(p, q, np.float32(alpha), out)
     return out
 
 
