@@ -28,12 +28,13 @@ from pyglet import gl  # noqa: E402
 from .gl import Mesh, Program, vertex_array  # noqa: E402
 from .lighting import GROUND, PLAZA, SKY_HORIZON, SKY_ZENITH  # noqa: E402
 
-__all__ = ["Backdrop", "ground_mesh", "grid_lines", "horizontal_forward", "GROUND_EXTENT"]
+__all__ = ["Backdrop", "ground_mesh", "grid_lines", "rect_minus", "horizontal_forward", "GROUND_EXTENT"]
 
 GROUND_EXTENT = 600.0      # metres from the world's centre to the edge of the ground plane
+CUT_OVERLAP = 0.5          # metres the plaza and a grid line left out under the floor still run under its edges
 
 
-def ground_mesh(area, extent=GROUND_EXTENT):
+def ground_mesh(area, extent=GROUND_EXTENT, hidden=()):
     """Triangles (V, 7) = position, rgb, fade 0 of the ground plane around the area's centre,
     with a hole where the plaza (the area) lies, and of the plaza. The ground is the 3 x 3 grid
     with lines at the plaza's edges minus its middle cell, so every edge is shared whole (no
@@ -42,6 +43,8 @@ def ground_mesh(area, extent=GROUND_EXTENT):
     Args:
         area: (xmin, zmin, xmax, zmax) of the plaza.
         extent: metres from the plaza's centre to the ground's edge.
+        hidden: rectangles (xmin, zmin, xmax, zmax) of opaque floor drawn over the plaza
+            (:func:`runtime.viewer.meshes.floor_rects`): the plaza is left out under them.
     """
     x0, z0, x1, z1 = area
     cx, cz = (x0 + x1) / 2, (z0 + z1) / 2
@@ -54,42 +57,97 @@ def ground_mesh(area, extent=GROUND_EXTENT):
 
     ground = np.concatenate([quad(xs[i], zs[j], xs[i + 1], zs[j + 1], GROUND)
                              for i in range(3) for j in range(3) if (i, j) != (1, 1)])
-    plaza = quad(x0, z0, x1, z1, PLAZA)
+    inner = [(a + CUT_OVERLAP, b + CUT_OVERLAP, c - CUT_OVERLAP, d - CUT_OVERLAP) for a, b, c, d in hidden
+             if c - a > 2 * CUT_OVERLAP and d - b > 2 * CUT_OVERLAP]
+    cells = rect_minus(area, inner)               # overlapping the floor's edges: no cracks between them
+    plaza = np.concatenate([quad(*c, PLAZA) for c in cells]) if cells else np.zeros((0, 7))
     return ground.astype(np.float32), plaza.astype(np.float32)
 
 
-def grid_lines(area, extent=150.0):
+def rect_minus(rect, holes) -> list[tuple[float, float, float, float]]:
+    """The rectangle ``rect`` (xmin, zmin, xmax, zmax) less the rectangles ``holes``, as
+    rectangles: the cells between all the edges, the uncovered ones merged along x. Empty
+    when the holes cover it."""
+    x0, z0, x1, z1 = rect
+    holes = [h for h in holes if h[0] < x1 and h[2] > x0 and h[1] < z1 and h[3] > z0]
+    xs = np.unique(np.clip([x0, x1, *(h[0] for h in holes), *(h[2] for h in holes)], x0, x1))
+    zs = np.unique(np.clip([z0, z1, *(h[1] for h in holes), *(h[3] for h in holes)], z0, z1))
+    out = []
+    for za, zb in zip(zs[:-1], zs[1:]):
+        run = None
+        for xa, xb in zip(xs[:-1], xs[1:]):
+            cx, cz = 0.5 * (xa + xb), 0.5 * (za + zb)
+            if any(h[0] <= cx <= h[2] and h[1] <= cz <= h[3] for h in holes):
+                if run is not None:
+                    out.append(run)
+                run = None
+            else:
+                run = (run[0], za, xb, zb) if run is not None else (xa, za, xb, zb)
+        if run is not None:
+            out.append(run)
+    return [tuple(float(v) for v in r) for r in out]
+
+
+def _pieces(lo, hi, seg, cuts):
+    """A line from ``lo`` to ``hi`` in pieces of at most ``seg`` (evenly spaced), less what
+    lies inside the intervals ``cuts`` [(a, b), ...] further than ``CUT_OVERLAP`` from their
+    ends (so that the pixels where a line goes under the floor are the same as when drawn
+    whole): a list of arrays of the kept points, one per run of pieces."""
+    cuts = [(a + CUT_OVERLAP, b - CUT_OVERLAP) for a, b in cuts if b - a > 2 * CUT_OVERLAP]
+    t = np.linspace(lo, hi, max(2, int((hi - lo) / seg) + 1))
+    ends = [v for a, b in cuts for v in (a, b) if lo < v < hi]
+    t = np.unique(np.concatenate([t, ends])) if ends else t
+    mid = 0.5 * (t[:-1] + t[1:])
+    keep = np.ones(len(mid), dtype=bool)
+    for a, b in cuts:
+        keep &= ~((mid > a) & (mid < b))
+    runs, k = [], 0
+    while k < len(mid):
+        if keep[k]:
+            j = k
+            while j + 1 < len(mid) and keep[j + 1]:
+                j += 1
+            runs.append(t[k:j + 2])
+            k = j + 1
+        else:
+            k += 1
+    return runs
+
+
+def grid_lines(area, extent=150.0, hidden=()):
     """Line segments (V, 7) = position, rgb, fade distance: 1 m lines over the plaza and 5 m
     lines out to ``extent`` (returned separately: they fade into different colours), in 25 m
     pieces (the fade is per pixel and the fog linear, so any pieces shade exactly; but llvmpipe
     drops lines that reach far outside the view, so they are not drawn whole). The x = 0 and
-    z = 0 lines are tinted red and blue."""
+    z = 0 lines are tinted red and blue. What would be painted over is left out: the 5 m lines
+    inside the plaza, and the 1 m lines under ``hidden`` rectangles (xmin, zmin, xmax, zmax) of
+    opaque floor."""
     x0, z0, x1, z1 = area
     out = []
 
-    def lines(lo_x, lo_z, hi_x, hi_z, spacing, colour, fade, seg):
+    def lines(lo_x, lo_z, hi_x, hi_z, spacing, colour, fade, seg, holes):
         xs = np.arange(math.ceil(lo_x / spacing), math.floor(hi_x / spacing) + 1) * spacing
         zs = np.arange(math.ceil(lo_z / spacing), math.floor(hi_z / spacing) + 1) * spacing
-        tz = np.linspace(lo_z, hi_z, max(2, int((hi_z - lo_z) / seg) + 1))
-        tx = np.linspace(lo_x, hi_x, max(2, int((hi_x - lo_x) / seg) + 1))
         for x in xs:
             if spacing < 5 and abs(x / 5 - round(x / 5)) < 1e-6:
                 continue
             col = colour if abs(x) > 1e-6 else (0.64, 0.40, 0.36)
-            p = np.column_stack([np.full(len(tz), x), np.full(len(tz), 0.004), tz])
-            out.append(_segments(p, col, fade))
+            for tz in _pieces(lo_z, hi_z, seg, [(h[1], h[3]) for h in holes if h[0] < x < h[2]]):
+                p = np.column_stack([np.full(len(tz), x), np.full(len(tz), 0.004), tz])
+                out.append(_segments(p, col, fade))
         for z in zs:
             if spacing < 5 and abs(z / 5 - round(z / 5)) < 1e-6:
                 continue
             col = colour if abs(z) > 1e-6 else (0.36, 0.46, 0.66)
-            p = np.column_stack([tx, np.full(len(tx), 0.004), np.full(len(tx), z)])
-            out.append(_segments(p, col, fade))
+            for tx in _pieces(lo_x, hi_x, seg, [(h[0], h[2]) for h in holes if h[1] < z < h[3]]):
+                p = np.column_stack([tx, np.full(len(tx), 0.004), np.full(len(tx), z)])
+                out.append(_segments(p, col, fade))
 
     cx, cz = (x0 + x1) / 2, (z0 + z1) / 2
-    lines(x0, z0, x1, z1, 1.0, np.array(PLAZA) * 0.90, 60.0, 25.0)
-    minor = np.concatenate(out).astype(np.float32)
+    lines(x0, z0, x1, z1, 1.0, np.array(PLAZA) * 0.90, 60.0, 25.0, list(hidden))
+    minor = np.concatenate(out).astype(np.float32) if out else np.zeros((0, 7), np.float32)
     out.clear()
-    lines(cx - extent, cz - extent, cx + extent, cz + extent, 5.0, np.array(GROUND) * 0.84, 90.0, 25.0)
+    lines(cx - extent, cz - extent, cx + extent, cz + extent, 5.0, np.array(GROUND) * 0.84, 90.0, 25.0, [tuple(area)])
     major = np.concatenate(out)
     # dissolve into the ground towards the edge of the grid
     rr = np.hypot(major[:, 0] - cx, major[:, 2] - cz) / extent
@@ -129,12 +187,13 @@ class Backdrop:
         self.m_lines = Mesh(flat, mode=gl.GL_LINES, usage=gl.GL_STATIC_DRAW)
         self.m_major = Mesh(flat, mode=gl.GL_LINES, usage=gl.GL_STATIC_DRAW)
 
-    def set_area(self, area) -> None:
-        """Rebuild the ground, plaza and grid around ``area`` (xmin, zmin, xmax, zmax)."""
-        g, p = ground_mesh(area)
+    def set_area(self, area, hidden=()) -> None:
+        """Rebuild the ground, plaza and grid around ``area`` (xmin, zmin, xmax, zmax), less
+        what ``hidden`` rectangles of opaque floor cover (see :func:`ground_mesh`)."""
+        g, p = ground_mesh(area, hidden=hidden)
         self.m_ground.upload(g)
         self.m_plaza.upload(p)
-        minor, major = grid_lines(area)
+        minor, major = grid_lines(area, hidden=hidden)
         self.m_lines.upload(minor)
         self.m_major.upload(major)
 

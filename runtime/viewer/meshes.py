@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import numpy as np
 
-__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "split_floor", "triangulate",
+__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "split_floor", "floor_rects", "triangulate",
            "posed_copies", "decal_vertices", "CARDBOARD", "FLOOR_MAX_Y"]
 
 
@@ -278,6 +278,21 @@ def split_floor(mesh: np.ndarray):
     floor = tri[flat]
     floor = floor[np.argsort(-floor[:, 0, 1], kind="stable")]
     return floor.reshape(-1, mesh.shape[-1]), tri[~flat].reshape(-1, mesh.shape[-1])
+
+
+def floor_rects(env) -> list[tuple[float, float, float, float]]:
+    """The region fills of :func:`environment_mesh` that are axis-aligned rectangles, as
+    (xmin, zmin, xmax, zmax): opaque floor that hides whatever of the ground lies under it."""
+    out = []
+    for m in env.markers.values():
+        if m.role != "region" or m.polygon is None or len(m.polygon) != 4:
+            continue
+        p = m.polygon
+        xs, zs = np.unique(p[:, 0]), np.unique(p[:, 1])
+        d = np.abs(np.diff(np.vstack([p, p[:1]]), axis=0))
+        if len(xs) == 2 and len(zs) == 2 and (np.minimum(d[:, 0], d[:, 1]) == 0).all():
+            out.append((float(xs[0]), float(zs[0]), float(xs[1]), float(zs[1])))
+    return out
 
 
 # -- per frame -------------------------------------------------------------------------------------

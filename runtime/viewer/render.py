@@ -33,8 +33,8 @@ from .characters import CharacterPass  # noqa: E402
 from .figures import FigureStyle  # noqa: E402
 from .gl import Mesh, Program  # noqa: E402
 from .lighting import GROUND, PLAZA, SKY_HORIZON, fog_range, shade_uniforms  # noqa: E402
-from .meshes import (CARDBOARD, arrow_mesh, box_mesh, decal_vertices, environment_mesh, posed_copies,  # noqa: E402
-                     split_floor)
+from .meshes import (CARDBOARD, arrow_mesh, box_mesh, decal_vertices, environment_mesh, floor_rects,  # noqa: E402
+                     posed_copies, split_floor)
 
 __all__ = ["Renderer", "SKY_HORIZON", "GROUND", "PLAZA"]
 
@@ -89,7 +89,7 @@ class Renderer:
         self.m_env.upload(rest)
         if env.num_obstacles or env.markers:
             self.area = env.bounds(1.5)
-        self.backdrop.set_area(self.area)
+        self.backdrop.set_area(self.area, floor_rects(env) if len(floor) else ())
 
     # -- per frame ----------------------------------------------------------------------------------------
     def draw_characters(self, view, proj, width: int, height: int, positions, selected=None,
