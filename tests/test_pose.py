@@ -223,3 +223,17 @@ def test_fused_skel_arrays_equal_the_numpy_path(default_graph):
     assert np.allclose(tf[:, 0, [0, 2]], root[:, :2], atol=1e-5)
     with pytest.raises(ValueError, match="out of range"):
         skel_arrays(g, [T], [0], [0.0], np.zeros((1, 3)))
+
+
+@pytest.mark.skipif(not pose_kernels.AVAILABLE, reason="numba is not importable here")
+def test_frame_interpolation_is_the_same_on_one_thread_and_on_all(monkeypatch):
+    """pose_kernels.lerp runs small batches on the calling thread and large ones in parallel:
+    both give p + alpha (q - p) in float32, bit for bit."""
+    rng = np.random.default_rng(4)
+    p, q = (rng.normal(size=(3, 700, 31)).astype(np.float32) * 20 for _ in range(2))
+    want = p + np.float32(0.37) * (q - p)
+    for limit in (0, 10 ** 9):                       # parallel, then serial
+        monkeypatch.setattr(pose_kernels, "LERP_SERIAL_MAX", limit)
+        out = np.empty_like(p)
+        assert pose_kernels.lerp(p, q, 0.37, out) is out
+        assert np.array_equal(out, want)

@@ -27,8 +27,9 @@ from pyglet import gl  # noqa: E402
 
 from .gl import Mesh, Program, vertex_array  # noqa: E402
 from .lighting import GROUND, PLAZA, SKY_HORIZON, SKY_ZENITH  # noqa: E402
+from .meshes import line_pieces, rect_minus  # noqa: E402
 
-__all__ = ["Backdrop", "ground_mesh", "grid_lines", "rect_minus", "horizontal_forward", "GROUND_EXTENT"]
+__all__ = ["Backdrop", "ground_mesh", "grid_lines", "horizontal_forward", "GROUND_EXTENT", "CUT_OVERLAP"]
 
 GROUND_EXTENT = 600.0      # metres from the world's centre to the edge of the ground plane
 CUT_OVERLAP = 0.5          # metres the plaza and a grid line left out under the floor still run under its edges
@@ -64,56 +65,6 @@ def ground_mesh(area, extent=GROUND_EXTENT, hidden=()):
     return ground.astype(np.float32), plaza.astype(np.float32)
 
 
-def rect_minus(rect, holes) -> list[tuple[float, float, float, float]]:
-    """The rectangle ``rect`` (xmin, zmin, xmax, zmax) less the rectangles ``holes``, as
-    rectangles: the cells between all the edges, the uncovered ones merged along x. Empty
-    when the holes cover it."""
-    x0, z0, x1, z1 = rect
-    holes = [h for h in holes if h[0] < x1 and h[2] > x0 and h[1] < z1 and h[3] > z0]
-    xs = np.unique(np.clip([x0, x1, *(h[0] for h in holes), *(h[2] for h in holes)], x0, x1))
-    zs = np.unique(np.clip([z0, z1, *(h[1] for h in holes), *(h[3] for h in holes)], z0, z1))
-    out = []
-    for za, zb in zip(zs[:-1], zs[1:]):
-        run = None
-        for xa, xb in zip(xs[:-1], xs[1:]):
-            cx, cz = 0.5 * (xa + xb), 0.5 * (za + zb)
-            if any(h[0] <= cx <= h[2] and h[1] <= cz <= h[3] for h in holes):
-                if run is not None:
-                    out.append(run)
-                run = None
-            else:
-                run = (run[0], za, xb, zb) if run is not None else (xa, za, xb, zb)
-        if run is not None:
-            out.append(run)
-    return [tuple(float(v) for v in r) for r in out]
-
-
-def _pieces(lo, hi, seg, cuts):
-    """A line from ``lo`` to ``hi`` in pieces of at most ``seg`` (evenly spaced), less what
-    lies inside the intervals ``cuts`` [(a, b), ...] further than ``CUT_OVERLAP`` from their
-    ends (so that the pixels where a line goes under the floor are the same as when drawn
-    whole): a list of arrays of the kept points, one per run of pieces."""
-    cuts = [(a + CUT_OVERLAP, b - CUT_OVERLAP) for a, b in cuts if b - a > 2 * CUT_OVERLAP]
-    t = np.linspace(lo, hi, max(2, int((hi - lo) / seg) + 1))
-    ends = [v for a, b in cuts for v in (a, b) if lo < v < hi]
-    t = np.unique(np.concatenate([t, ends])) if ends else t
-    mid = 0.5 * (t[:-1] + t[1:])
-    keep = np.ones(len(mid), dtype=bool)
-    for a, b in cuts:
-        keep &= ~((mid > a) & (mid < b))
-    runs, k = [], 0
-    while k < len(mid):
-        if keep[k]:
-            j = k
-            while j + 1 < len(mid) and keep[j + 1]:
-                j += 1
-            runs.append(t[k:j + 2])
-            k = j + 1
-        else:
-            k += 1
-    return runs
-
-
 def grid_lines(area, extent=150.0, hidden=()):
     """Line segments (V, 7) = position, rgb, fade distance: 1 m lines over the plaza and 5 m
     lines out to ``extent`` (returned separately: they fade into different colours), in 25 m
@@ -132,14 +83,14 @@ def grid_lines(area, extent=150.0, hidden=()):
             if spacing < 5 and abs(x / 5 - round(x / 5)) < 1e-6:
                 continue
             col = colour if abs(x) > 1e-6 else (0.64, 0.40, 0.36)
-            for tz in _pieces(lo_z, hi_z, seg, [(h[1], h[3]) for h in holes if h[0] < x < h[2]]):
+            for tz in line_pieces(lo_z, hi_z, seg, [(h[1], h[3]) for h in holes if h[0] < x < h[2]], CUT_OVERLAP):
                 p = np.column_stack([np.full(len(tz), x), np.full(len(tz), 0.004), tz])
                 out.append(_segments(p, col, fade))
         for z in zs:
             if spacing < 5 and abs(z / 5 - round(z / 5)) < 1e-6:
                 continue
             col = colour if abs(z) > 1e-6 else (0.36, 0.46, 0.66)
-            for tx in _pieces(lo_x, hi_x, seg, [(h[0], h[2]) for h in holes if h[1] < z < h[3]]):
+            for tx in line_pieces(lo_x, hi_x, seg, [(h[0], h[2]) for h in holes if h[1] < z < h[3]], CUT_OVERLAP):
                 p = np.column_stack([tx, np.full(len(tx), 0.004), np.full(len(tx), z)])
                 out.append(_segments(p, col, fade))
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 import numpy as np
 
-__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "split_floor", "floor_rects", "triangulate",
-           "posed_copies", "decal_vertices", "CARDBOARD", "FLOOR_MAX_Y"]
+__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "split_floor", "floor_rects", "rect_minus",
+           "line_pieces", "triangulate", "posed_copies", "decal_vertices", "CARDBOARD", "FLOOR_MAX_Y"]
 
 
 # -- capsule -----------------------------------------------------------------------------------------
@@ -293,6 +293,56 @@ def floor_rects(env) -> list[tuple[float, float, float, float]]:
         if len(xs) == 2 and len(zs) == 2 and (np.minimum(d[:, 0], d[:, 1]) == 0).all():
             out.append((float(xs[0]), float(zs[0]), float(xs[1]), float(zs[1])))
     return out
+
+
+def rect_minus(rect, holes) -> list[tuple[float, float, float, float]]:
+    """The rectangle ``rect`` (xmin, zmin, xmax, zmax) less the rectangles ``holes``, as
+    rectangles: the cells between all the edges, the uncovered ones merged along x. Empty
+    when the holes cover it."""
+    x0, z0, x1, z1 = rect
+    holes = [h for h in holes if h[0] < x1 and h[2] > x0 and h[1] < z1 and h[3] > z0]
+    xs = np.unique(np.clip([x0, x1, *(h[0] for h in holes), *(h[2] for h in holes)], x0, x1))
+    zs = np.unique(np.clip([z0, z1, *(h[1] for h in holes), *(h[3] for h in holes)], z0, z1))
+    out = []
+    for za, zb in zip(zs[:-1], zs[1:]):
+        run = None
+        for xa, xb in zip(xs[:-1], xs[1:]):
+            cx, cz = 0.5 * (xa + xb), 0.5 * (za + zb)
+            if any(h[0] <= cx <= h[2] and h[1] <= cz <= h[3] for h in holes):
+                if run is not None:
+                    out.append(run)
+                run = None
+            else:
+                run = (run[0], za, xb, zb) if run is not None else (xa, za, xb, zb)
+        if run is not None:
+            out.append(run)
+    return [tuple(float(v) for v in r) for r in out]
+
+
+def line_pieces(lo, hi, seg, cuts, overlap: float = 0.0):
+    """A line from ``lo`` to ``hi`` in pieces of at most ``seg`` (evenly spaced), less what
+    lies inside the intervals ``cuts`` [(a, b), ...] further than ``overlap`` from their ends:
+    a list of arrays of the kept points, one per run of pieces (the uncut line's points, and
+    the cuts' ends: where the line is kept it is drawn through the same points as uncut)."""
+    cuts = [(a + overlap, b - overlap) for a, b in cuts if b - a > 2 * overlap]
+    t = np.linspace(lo, hi, max(2, int((hi - lo) / seg) + 1))
+    ends = [v for a, b in cuts for v in (a, b) if lo < v < hi]
+    t = np.unique(np.concatenate([t, ends])) if ends else t
+    mid = 0.5 * (t[:-1] + t[1:])
+    keep = np.ones(len(mid), dtype=bool)
+    for a, b in cuts:
+        keep &= ~((mid > a) & (mid < b))
+    runs, k = [], 0
+    while k < len(mid):
+        if keep[k]:
+            j = k
+            while j + 1 < len(mid) and keep[j + 1]:
+                j += 1
+            runs.append(t[k:j + 2])
+            k = j + 1
+        else:
+            k += 1
+    return runs
 
 
 # -- per frame -------------------------------------------------------------------------------------
