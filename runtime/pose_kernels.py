@@ -5,7 +5,7 @@ The numpy path of :class:`runtime.pose.PoseBatch` runs about thirty whole-array 
 component: at 10,000 characters that is memory traffic, not arithmetic, and it does not fit in
 3 ms on this machine. These kernels do the same arithmetic in one pass per character (read the
 two library frames' rows of the position table, blend, rotate by the heading, translate, write),
-spread over the cores with ``prange``. They compute exactly what the numpy path computes (same
+spread over the cores with ``prange`` above :data:`SERIAL_MAX` characters. They compute exactly what the numpy path computes (same
 formula, float32), which tests/test_pose.py checks against it and against the exact evaluator.
 With the foot lock (:func:`blend_place_lock`) the same pass then pins the character's planted
 feet (the arithmetic of :func:`runtime.motion.footlock.lock_positions`, in float64 from the
