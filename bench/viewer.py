@@ -25,7 +25,9 @@ characters, 300 ambient people kept busy by ``runtime.world.ambient``, the tiled
 flocks, all on one World planning live under its budget) at 1280x720 from the opening view: frame
 rate of the whole loop (target >= 30 fps) and the World's tick times, p50 / p99 / max (target p99
 <= 16 ms), with the planning figures of the run; the same frames with the scene paused give the
-viewer's own cost.
+viewer's own cost, and a few more paused frames the median time of each pass bracketed by
+``glFinish`` (each bracket also pays for a flush of llvmpipe's queued work, so the passes add up
+to more than a frame).
 
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/viewer.py [--counts 500,2000] [--seconds 6]
     CROWDWEAVE_CACHE=/tmp/cwcache .venv/bin/python bench/viewer.py --plaza [--seconds 30]
@@ -119,6 +121,36 @@ def paused_fps(viewer, seconds: float) -> float:
     return frames / (time.perf_counter() - t0)
 
 
+def pass_times(viewer, gl, frames: int = 20) -> dict:
+    """Median milliseconds of each pass of a paused frame, each bracketed by ``glFinish``."""
+    r = viewer.renderer
+    parts = {"backdrop": (r.backdrop, "draw"), "characters": (r.characters, "draw"), "HUD": (viewer, "_draw_hud"),
+             "floor": (r.m_floor, "draw"), "environment": (r.m_env, "draw"), "flocks": (r.m_agents, "draw"),
+             "decals": (r.m_decals, "draw")}
+    times = {k: [] for k in parts}
+
+    def timed(name, fn):
+        def call(*a, **kw):
+            gl.glFinish()
+            t0 = time.perf_counter()
+            out = fn(*a, **kw)
+            gl.glFinish()
+            times[name].append((time.perf_counter() - t0) * 1e3)
+            return out
+        return call
+
+    for name, (obj, attr) in parts.items():
+        setattr(obj, attr, timed(name, getattr(obj, attr)))
+    viewer.paused = True
+    try:
+        viewer.run(max_frames=frames)
+    finally:
+        viewer.paused = False
+        for obj, attr in parts.values():
+            del obj.__dict__[attr]          # the class's method again
+    return {k: float(np.median(v)) for k, v in times.items() if v}
+
+
 def run_plaza(args):
     """The living plaza at ``--width`` x ``--height`` from the opening view."""
     from runtime.viewer import headless, make_viewer
@@ -150,6 +182,7 @@ def run_plaza(args):
     n_ticks = world.stats["ticks"] - ticks0
     ticks = world.tick_times[np.arange(ticks0, ticks0 + n_ticks) % len(world.tick_times)]
     fps_paused = paused_fps(viewer, max(1.0, args.seconds / 6))
+    passes = pass_times(viewer, gl)
     renderer_name = gl.gl_info.get_renderer()
     lod = dict(viewer.renderer.lod_counts)
     if args.screenshot_dir:
@@ -177,6 +210,8 @@ def run_plaza(args):
     if n_ticks:
         print(f"World tick p99 {np.percentile(ticks, 99):.1f} ms (target <= 16); "
               f"{world.time - t_warm:.1f} s simulated in {elapsed:.1f} s")
+    print("paused frame by pass (ms, glFinish-bracketed medians): "
+          + ", ".join(f"{k} {v:.2f}" for k, v in passes.items()))
     print(f"planning: plans used {world.stats['plans_done']}, not used {world.stats['plans_failed']}; ambient: "
           f"{int((life.goals_had > 0).sum())}/{len(life.names)} people have had goals, {s['arrived']} arrivals, "
           f"timed goals met on time {s['met']}/{s['met'] + s['late'] + s['failed']}")

@@ -5,7 +5,7 @@ The numpy path of :class:`runtime.pose.PoseBatch` runs about thirty whole-array 
 component: at 10,000 characters that is memory traffic, not arithmetic, and it does not fit in
 3 ms on this machine. These kernels do the same arithmetic in one pass per character (read the
 two library frames' rows of the position table, blend, rotate by the heading, translate, write),
-spread over the cores with ``prange``. They compute exactly what the numpy path computes (same
+spread over the cores with ``prange`` above :data:`SERIAL_MAX` characters. They compute exactly what the numpy path computes (same
 formula, float32), which tests/test_pose.py checks against it and against the exact evaluator.
 With the foot lock (:func:`blend_place_lock`) the same pass then pins the character's planted
 feet (the arithmetic of :func:`runtime.motion.footlock.lock_positions`, in float64 from the
@@ -26,7 +26,12 @@ except Exception:  # numba missing or incompatible with this numpy
     _nb = None
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "blend_place", "lerp", "skel_arrays", "blend_place_lock"]
+__all__ = ["AVAILABLE", "SERIAL_MAX", "blend_place", "lerp", "skel_arrays", "blend_place_lock"]
+
+# Up to this many characters the per-frame kernels (blend_place, blend_place_lock, lerp) run on
+# the calling thread: a few hundred characters take well under a millisecond there, while
+# waking the worker threads on a busy machine can take several (measured on 2 shared cores).
+SERIAL_MAX = 1024
 
 
 if AVAILABLE:
@@ -66,6 +71,15 @@ if AVAILABLE:
         n = p.shape[1]
         J = p.shape[2]
         for i in _nb.prange(n):
+            for k in range(3):
+                for j in range(J):
+                    out[k, i, j] = p[k, i, j] + alpha * (q[k, i, j] - p[k, i, j])
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _lerp_serial(p, q, alpha, out):  # pragma: no cover - compiled
+        n = p.shape[1]
+        J = p.shape[2]
+        for i in range(n):
             for k in range(3):
                 for j in range(J):
                     out[k, i, j] = p[k, i, j] + alpha * (q[k, i, j] - p[k, i, j])
@@ -316,17 +330,35 @@ if AVAILABLE:
             _lock_one(out, i, planted, fa, fb, t, root[i, 2], hip, knee, ankle, toe, foot, thigh, shin, rmin, rmax,
                       locked, target, res, kcount, blend, maxc, maxdrop)
 
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _blend_place_lock_serial(local, fa, fb, t, root, out, planted, hip, knee, ankle, toe, foot, thigh, shin,
+                                 rmin, rmax, locked, target, res, kcount, blend, maxc,
+                                 maxdrop):  # pragma: no cover - compiled
+        for i in range(fa.shape[0]):
+            _place_one(local, fa, fb, t, root, out, i)
+            _lock_one(out, i, planted, fa, fb, t, root[i, 2], hip, knee, ankle, toe, foot, thigh, shin, rmin, rmax,
+                      locked, target, res, kcount, blend, maxc, maxdrop)
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _blend_place_serial(local, fa, fb, t, root, out):  # pragma: no cover - compiled
+        for i in range(fa.shape[0]):
+            _place_one(local, fa, fb, t, root, out, i)
+
+
 def blend_place(local, fa, fb, t, root, out):
-    """World positions (3, n, J) into ``out``: ``R_y(heading) lerp(L[a], L[b], t) + (x, 0, z)``.
-    Frame indices must be valid (the caller checks them)."""
-    _blend_place(local, np.ascontiguousarray(fa, dtype=np.int64), np.ascontiguousarray(fb, dtype=np.int64),
-                 np.ascontiguousarray(t, dtype=np.float32), np.ascontiguousarray(root, dtype=np.float64), out)
+    """World positions (3, n, J) into ``out``: ``R_y(heading) lerp(L[a], L[b], t) + (x, 0, z)``
+    (parallel above :data:`SERIAL_MAX` characters). Frame indices must be valid (the caller
+    checks them)."""
+    (_blend_place if len(fa) > SERIAL_MAX else _blend_place_serial)(
+        local, np.ascontiguousarray(fa, dtype=np.int64), np.ascontiguousarray(fb, dtype=np.int64),
+        np.ascontiguousarray(t, dtype=np.float32), np.ascontiguousarray(root, dtype=np.float64), out)
     return out
 
 
 def lerp(p, q, alpha: float, out):
-    """``out = p + alpha (q - p)`` over (3, n, J) float32 arrays, in one parallel pass."""
-    _lerp(p, q, np.float32(alpha), out)
+    """``out = p + alpha (q - p)`` over (3, n, J) float32 arrays, in one pass (parallel above
+    :data:`SERIAL_MAX` characters)."""
+    (_lerp if p.shape[1] > SERIAL_MAX else _lerp_serial)(p, q, np.float32(alpha), out)
     return out
 
 
@@ -350,11 +382,12 @@ def skel_arrays(rot, height, offsets, fa, fb, t, root):
 
 def blend_place_lock(local, fa, fb, t, root, out, model, state, blend: int, max_correction: float,
                      max_drop: float) -> None:
-    """:func:`blend_place` and :func:`foot_lock` in one parallel pass per character (the lock
-    runs while the character's joints are in cache)."""
+    """:func:`blend_place` and :func:`foot_lock` in one pass per character (the lock runs while
+    the character's joints are in cache; parallel above :data:`SERIAL_MAX` characters)."""
     legs = model.legs
-    _blend_place_lock(local, np.ascontiguousarray(fa, dtype=np.int64), np.ascontiguousarray(fb, dtype=np.int64),
-                      np.ascontiguousarray(t, dtype=np.float32), np.ascontiguousarray(root, dtype=np.float64), out,
-                      model.planted, legs.hip, legs.knee, legs.ankle, legs.toe, model.foot, model.thigh, model.shin,
-                      model.reach_min, model.reach_max, state.locked, state.target, state.res, state.k, int(blend),
-                      float(max_correction), float(max_drop))
+    (_blend_place_lock if len(fa) > SERIAL_MAX else _blend_place_lock_serial)(
+        local, np.ascontiguousarray(fa, dtype=np.int64), np.ascontiguousarray(fb, dtype=np.int64),
+        np.ascontiguousarray(t, dtype=np.float32), np.ascontiguousarray(root, dtype=np.float64), out,
+        model.planted, legs.hip, legs.knee, legs.ankle, legs.toe, model.foot, model.thigh, model.shin,
+        model.reach_min, model.reach_max, state.locked, state.target, state.res, state.k, int(blend),
+        float(max_correction), float(max_drop))

@@ -223,3 +223,32 @@ def test_fused_skel_arrays_equal_the_numpy_path(default_graph):
     assert np.allclose(tf[:, 0, [0, 2]], root[:, :2], atol=1e-5)
     with pytest.raises(ValueError, match="out of range"):
         skel_arrays(g, [T], [0], [0.0], np.zeros((1, 3)))
+
+
+@pytest.mark.skipif(not pose_kernels.AVAILABLE, reason="numba is not importable here")
+def test_fused_kernels_are_the_same_on_one_thread_and_on_all(default_graph, monkeypatch):
+    """The per-frame kernels run small batches on the calling thread and large ones in parallel
+    (pose_kernels.SERIAL_MAX): placement, foot lock and interpolation agree bit for bit."""
+    g = default_graph
+    T = len(g.frame_height)
+    runs = []
+    for limit in (0, 10 ** 9):                       # parallel, then serial
+        monkeypatch.setattr(pose_kernels, "SERIAL_MAX", limit)
+        rng = np.random.default_rng(4)
+        _, st = _states(g, 200, rng)
+        got = []
+        for lock in (False, True):
+            batch = PoseBatch(g, fused=True, foot_lock=lock)
+            batch.push(st)
+            for _ in range(4):
+                fa = np.minimum(st.frames_a + 1, T - 2)
+                root = st.root + rng.normal(0, 0.05, (len(fa), 3))
+                st = PoseState(fa, fa + 1, rng.random(len(fa)).astype(np.float32), root)
+                batch.push(st)
+                got.append(batch.positions(0.37).copy())
+        p, q = (rng.normal(size=(3, 700, 31)).astype(np.float32) * 20 for _ in range(2))
+        out = np.empty_like(p)
+        assert pose_kernels.lerp(p, q, 0.37, out) is out
+        assert np.array_equal(out, p + np.float32(0.37) * (q - p))
+        runs.append(got)
+    assert all(np.array_equal(a, b) for a, b in zip(*runs))

@@ -144,6 +144,65 @@ def _run(script, args, env_extra=None, drop_display=False, timeout=240):
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+FLOOR_SCRIPT = r"""
+import json
+import numpy as np
+from runtime.viewer import headless
+headless.configure(True)
+import pyglet
+from pyglet import gl
+from runtime.crowd.environment import Environment, Marker
+from runtime.motion.skeleton import Skeleton
+from runtime.viewer.camera import OrbitCamera
+from runtime.viewer.gl import Mesh
+from runtime.viewer.lighting import SKY_HORIZON, fog_range, shade_uniforms
+from runtime.viewer.meshes import environment_mesh
+from runtime.viewer.render import Renderer
+W, H = 960, 540
+config = gl.Config(double_buffer=True, depth_size=24, stencil_size=8, major_version=3, minor_version=3,
+                   forward_compatible=True, red_size=8, green_size=8, blue_size=8, alpha_size=8)
+win = pyglet.window.Window(W, H, config=config, visible=False)
+turned = np.array([[0.0, -3.0], [3.0, 0.0], [0.0, 3.0], [-3.0, 0.0]]) + [0.0, -12.0]
+env = Environment([[[8, 8], [10, 8], [10, 10], [8, 10.0]]], None, [
+    Marker("/a", "region", (0, 0), 0.0, [[-6, -4], [6, -4], [6, 4], [-6, 4]]),
+    Marker("/b", "region", (1, 1), 0.0, [[-5, -3], [7, -3], [7, 5], [-5, 5]]),     # coplanar, overlapping /a
+    Marker("/c", "region", (0, -12), 0.0, turned),                                  # not axis-aligned
+    Marker("/s", "spawn", (2, 1), 0.3), Marker("/t", "seat", (-2, 2), 1.0)])
+r = Renderer(Skeleton(["r", "a"], np.array([-1, 0]), [[0, 0, 0], [0, 0.5, 0]]))
+r.set_environment(env)
+cam = OrbitCamera(target=np.array([1.0, 0.0, -2.0]), distance=26.0, yaw=0.6, pitch=0.55)
+view, proj, eye = cam.view(), cam.projection(W, H), cam.eye
+
+def grab():
+    buf = (gl.GLubyte * (W * H * 3))()
+    gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+    gl.glReadPixels(0, 0, W, H, gl.GL_RGB, gl.GL_UNSIGNED_BYTE, buf)
+    return np.frombuffer(buf, np.uint8).reshape(H, W, 3).astype(int)
+
+r.draw(view, proj, eye, W, H)
+shot = grab()
+# the painter's order: the whole backdrop, then everything in the environment's mesh order
+r.backdrop.set_area(r.area)
+gl.glViewport(0, 0, W, H)
+gl.glClearColor(*SKY_HORIZON, 1.0)
+gl.glClear(gl.GL_COLOR_BUFFER_BIT | gl.GL_DEPTH_BUFFER_BIT | gl.GL_STENCIL_BUFFER_BIT)
+centre = np.array([0.5 * (r.area[0] + r.area[2]), 0.0, 0.5 * (r.area[1] + r.area[3])])
+dist = float(np.linalg.norm(eye - centre))
+shade = shade_uniforms(fog_range(dist))
+r.backdrop.draw(view, proj @ view, eye, dist, shade)
+gl.glEnable(gl.GL_DEPTH_TEST)
+gl.glDepthFunc(gl.GL_LEQUAL)
+m = Mesh([(0, 3), (1, 3), (2, 3)])
+m.upload(environment_mesh(env))
+r._draw_lit(m, proj @ view, eye, shade)
+ref = grab()
+d = np.abs(shot - ref).sum(axis=2)
+fill = np.array([0.76, 0.72, 0.60]) * 255
+print(json.dumps({"over2": float((d > 2).mean()), "over12": int((d > 12).sum()), "max": int(d.max()),
+                  "floor_in_view": float((np.abs(ref - fill).sum(axis=2) < 150).mean())}))
+"""
+
+
 @pytest.fixture(scope="module")
 def xvfb():
     """A private Xvfb server (1280x720x24) for this module; yields its DISPLAY string."""
@@ -208,6 +267,17 @@ def test_click_selects_right_click_sends_the_character_there_and_keys_work(libra
     assert res["keys"] == {"paused": True, "frozen": True, "stepped": 1, "scale": 2.0}
     assert res["box_diff"] > 40, "a box from scene.box_positions() was not drawn"
     assert res["static_box_diffs"] and min(res["static_box_diffs"]) > 40, "static box markers still drawn"
+
+
+@pytest.mark.display
+def test_floor_markings_first_and_backdrop_last_paint_the_painters_picture():
+    """Overlapping coplanar region fills, a turned one, a spawn disc, a seat and an obstacle:
+    drawn front to back (floor markings topmost first under a stencil, the backdrop at the far
+    plane, less what rectangular fills hide), the frame is the one the painter's order gives
+    (the whole backdrop first, then the environment in its mesh order)."""
+    res = _run(FLOOR_SCRIPT, [], drop_display=True)
+    assert res["floor_in_view"] > 0.1, res
+    assert res["over2"] < 0.002 and res["over12"] <= 40, res
 
 
 # -- no display needed ------------------------------------------------------------------------------
@@ -297,3 +367,40 @@ def test_figure_style_meshes_and_polygon_triangulation(default_graph):
     assert abs(m[:, 1].max() - 2.0) < 1e-6
     near_seat = np.hypot(m[:, 0] - 0, m[:, 2] + 3) < 0.5
     assert near_seat.any() and m[near_seat, 1].max() > 0.8
+
+
+def test_floor_split_and_what_the_backdrop_leaves_out():
+    from runtime.crowd.environment import Environment, Marker
+    from runtime.viewer.meshes import FLOOR_MAX_Y, environment_mesh, floor_rects, line_pieces, rect_minus, split_floor
+    turned = np.array([[0.0, -3.0], [3.0, 0.0], [0.0, 3.0], [-3.0, 0.0]])
+    env = Environment([[[8, 8], [10, 8], [10, 10], [8, 10.0]]], None, [
+        Marker("/a", "region", (0, 0), 0.0, [[-6, -4], [6, -4], [6, 4], [-6, 4]]),
+        Marker("/c", "region", (0, -12), 0.0, turned), Marker("/s", "spawn", (2, 1), 0.3),
+        Marker("/t", "seat", (-2, 2), 1.0)])
+    mesh = environment_mesh(env)
+    floor, rest = split_floor(mesh)
+    assert len(floor) + len(rest) == len(mesh) and len(floor) % 3 == 0 and len(rest) % 3 == 0
+    assert (floor[:, 1] <= FLOOR_MAX_Y).all() and np.allclose(floor[:, 3:6], [0, 1, 0])
+    ty = floor[::3, 1]
+    assert (np.diff(ty) <= 0).all() and ty[0] > ty[-1]              # topmost first
+    assert rest[:, 1].max() > 0.9 and rest[:, 1].max() == mesh[:, 1].max()   # the obstacle and the seat
+    assert sorted(map(tuple, np.unique(np.round(floor[:, 6:9], 4), axis=0))) == sorted(
+        map(tuple, np.unique(np.round(mesh[(mesh[:, 1] <= FLOOR_MAX_Y) & (mesh[:, 4] > 0.999), 6:9], 4), axis=0)))
+    assert floor_rects(env) == [(-6.0, -4.0, 6.0, 4.0)]               # the turned square is not one
+    # a rectangle less holes: the uncovered area, in cells that do not overlap the holes
+    rect, holes = (0.0, 0.0, 10.0, 6.0), [(2.0, 1.0, 4.0, 3.0), (3.0, 2.0, 12.0, 4.0)]
+    cells = rect_minus(rect, holes)
+    area = sum((c[2] - c[0]) * (c[3] - c[1]) for c in cells)
+    assert abs(area - (60.0 - 4.0 - 14.0 + 1.0)) < 1e-9
+    for c in cells:
+        for h in holes:
+            assert min(c[2], h[2]) <= max(c[0], h[0]) or min(c[3], h[3]) <= max(c[1], h[1])
+    assert rect_minus(rect, [(-1, -1, 11, 7)]) == [] and rect_minus(rect, []) == [rect]
+    # a line less what lies under a hole (but for the overlap), through the uncut line's points
+    whole = line_pieces(-150.0, 150.0, 25.0, [])
+    assert len(whole) == 1 and np.allclose(whole[0], np.linspace(-150, 150, 13))
+    runs = line_pieces(-150.0, 150.0, 25.0, [(-36.5, 36.5)], overlap=0.5)
+    assert [r[-1] for r in runs][:1] == [-36.0] and runs[1][0] == 36.0
+    kept = np.concatenate(runs)
+    assert set(np.linspace(-150, 150, 13)) - set(kept) == {-25.0, 0.0, 25.0}
+    assert line_pieces(0.0, 10.0, 25.0, [(-1.0, 11.0)]) == []

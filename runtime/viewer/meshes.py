@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 import numpy as np
 
-__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "triangulate", "posed_copies",
-           "decal_vertices", "CARDBOARD"]
+__all__ = ["capsule_mesh", "arrow_mesh", "box_mesh", "environment_mesh", "split_floor", "floor_rects", "rect_minus",
+           "line_pieces", "triangulate", "posed_copies", "decal_vertices", "CARDBOARD", "FLOOR_MAX_Y"]
 
 
 # -- capsule -----------------------------------------------------------------------------------------
@@ -261,6 +261,88 @@ def environment_mesh(env, heights=None, default_height: float = 1.0, draw_boxes:
             mb.flat(m.polygon, 0.006, REGION_FILL)
             mb.outline(m.polygon, 0.009, 0.08, REGION * 0.8)
     return mb.build()
+
+
+FLOOR_MAX_Y = 0.05         # flat triangles at most this high are floor markings
+
+
+def split_floor(mesh: np.ndarray):
+    """Split triangles (V, 9) of :func:`environment_mesh` into the floor markings (flat,
+    facing up, at most :data:`FLOOR_MAX_Y` high: spawn discs, region fills and outlines) and
+    the rest. The floor comes highest first (stable within a height), so that where markings
+    overlap the topmost one is drawn first: the renderer shades each floor pixel once.
+
+    Returns (floor (F, 9), rest (V - F, 9))."""
+    tri = np.asarray(mesh).reshape(-1, 3, mesh.shape[-1])
+    flat = (tri[:, :, 1].max(axis=1) <= FLOOR_MAX_Y) & (tri[:, :, 4].min(axis=1) > 0.999)
+    floor = tri[flat]
+    floor = floor[np.argsort(-floor[:, 0, 1], kind="stable")]
+    return floor.reshape(-1, mesh.shape[-1]), tri[~flat].reshape(-1, mesh.shape[-1])
+
+
+def floor_rects(env) -> list[tuple[float, float, float, float]]:
+    """The region fills of :func:`environment_mesh` that are axis-aligned rectangles, as
+    (xmin, zmin, xmax, zmax): opaque floor that hides whatever of the ground lies under it."""
+    out = []
+    for m in env.markers.values():
+        if m.role != "region" or m.polygon is None or len(m.polygon) != 4:
+            continue
+        p = m.polygon
+        xs, zs = np.unique(p[:, 0]), np.unique(p[:, 1])
+        d = np.abs(np.diff(np.vstack([p, p[:1]]), axis=0))
+        if len(xs) == 2 and len(zs) == 2 and (np.minimum(d[:, 0], d[:, 1]) == 0).all():
+            out.append((float(xs[0]), float(zs[0]), float(xs[1]), float(zs[1])))
+    return out
+
+
+def rect_minus(rect, holes) -> list[tuple[float, float, float, float]]:
+    """The rectangle ``rect`` (xmin, zmin, xmax, zmax) less the rectangles ``holes``, as
+    rectangles: the cells between all the edges, the uncovered ones merged along x. Empty
+    when the holes cover it."""
+    x0, z0, x1, z1 = rect
+    holes = [h for h in holes if h[0] < x1 and h[2] > x0 and h[1] < z1 and h[3] > z0]
+    xs = np.unique(np.clip([x0, x1, *(h[0] for h in holes), *(h[2] for h in holes)], x0, x1))
+    zs = np.unique(np.clip([z0, z1, *(h[1] for h in holes), *(h[3] for h in holes)], z0, z1))
+    out = []
+    for za, zb in zip(zs[:-1], zs[1:]):
+        run = None
+        for xa, xb in zip(xs[:-1], xs[1:]):
+            cx, cz = 0.5 * (xa + xb), 0.5 * (za + zb)
+            if any(h[0] <= cx <= h[2] and h[1] <= cz <= h[3] for h in holes):
+                if run is not None:
+                    out.append(run)
+                run = None
+            else:
+                run = (run[0], za, xb, zb) if run is not None else (xa, za, xb, zb)
+        if run is not None:
+            out.append(run)
+    return [tuple(float(v) for v in r) for r in out]
+
+
+def line_pieces(lo, hi, seg, cuts, overlap: float = 0.0):
+    """A line from ``lo`` to ``hi`` in pieces of at most ``seg`` (evenly spaced), less what
+    lies inside the intervals ``cuts`` [(a, b), ...] further than ``overlap`` from their ends:
+    a list of arrays of the kept points, one per run of pieces (the uncut line's points, and
+    the cuts' ends: where the line is kept it is drawn through the same points as uncut)."""
+    cuts = [(a + overlap, b - overlap) for a, b in cuts if b - a > 2 * overlap]
+    t = np.linspace(lo, hi, max(2, int((hi - lo) / seg) + 1))
+    ends = [v for a, b in cuts for v in (a, b) if lo < v < hi]
+    t = np.unique(np.concatenate([t, ends])) if ends else t
+    mid = 0.5 * (t[:-1] + t[1:])
+    keep = np.ones(len(mid), dtype=bool)
+    for a, b in cuts:
+        keep &= ~((mid > a) & (mid < b))
+    runs, k = [], 0
+    while k < len(mid):
+        if keep[k]:
+            j = k
+            while j + 1 < len(mid) and keep[j + 1]:
+                j += 1
+            runs.append(t[k:j + 2])
+            k = j + 1
+        else:
+            k += 1
+    return runs
 
 
 # -- per frame -------------------------------------------------------------------------------------

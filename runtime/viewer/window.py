@@ -31,6 +31,7 @@ __all__ = ["Viewer", "FrameInfo"]
 
 PICK_RADIUS_PX = 40.0
 DRAG_THRESHOLD_PX = 4
+HUD_REFRESH_S = 0.25       # the HUD's figures are refreshed this often (laying text out is not free)
 
 
 @dataclass
@@ -62,7 +63,8 @@ class Viewer:
         if window is None:
             # 8 bits per channel: without asking, headless EGL picks RGB565, which llvmpipe fills
             # far more slowly than its native BGRA8 (and which bands the colours)
-            config = gl.Config(double_buffer=True, depth_size=24, major_version=3, minor_version=3,
+            # a stencil buffer lets overlapping floor markings shade each pixel once (render.py)
+            config = gl.Config(double_buffer=True, depth_size=24, stencil_size=8, major_version=3, minor_version=3,
                                forward_compatible=True, red_size=8, green_size=8, blue_size=8, alpha_size=8)
             try:
                 window = pyglet.window.Window(width, height, caption=caption, resizable=True, config=config,
@@ -92,6 +94,8 @@ class Viewer:
         self._fps_frames = 0
         self._fps_t0 = time.perf_counter()
         self._fps = 0.0
+        self._hud_due = 0.0                # when the HUD's text is next refreshed
+        self._hud_key = None               # what refreshes it at once when it changes
         self.frame_ms: dict[str, float] = {}
         self.commands_sent: list[tuple[int, np.ndarray]] = []
         self._clock = None                 # time of the last update (kept across run() calls)
@@ -306,16 +310,20 @@ class Viewer:
         self.info.selected = self.selected
 
     def _draw_hud(self):
-        hud_stats = self._optional("hud_stats")
-        stats = dict(hud_stats()) if hud_stats is not None else {}
         n = len(self._last_positions) if self._last_positions is not None else 0
-        vstats = {"fps": round(self._fps, 1), "render ms": round(self.frame_ms.get("render", 0.0), 2),
-                  "speed": f"x{self.time_scale:g}" + (" PAUSED" if self.paused else "")}
-        if "characters" not in stats:
-            vstats["characters"] = n
-        if self.selected is not None:
-            vstats["selected"] = self.selected
-        self.hud.update(format_stats(vstats, stats))
+        now = time.perf_counter()
+        key = (self.selected, self.time_scale, self.paused, n, self.window.get_size())
+        if now >= self._hud_due or key != self._hud_key:
+            self._hud_due, self._hud_key = now + HUD_REFRESH_S, key
+            hud_stats = self._optional("hud_stats")
+            stats = dict(hud_stats()) if hud_stats is not None else {}
+            vstats = {"fps": round(self._fps, 1), "render ms": round(self.frame_ms.get("render", 0.0), 2),
+                      "speed": f"x{self.time_scale:g}" + (" PAUSED" if self.paused else "")}
+            if "characters" not in stats:
+                vstats["characters"] = n
+            if self.selected is not None:
+                vstats["selected"] = self.selected
+            self.hud.update(format_stats(vstats, stats))
         gl.glDisable(gl.GL_DEPTH_TEST)
         gl.glEnable(gl.GL_BLEND)
         gl.glBlendFunc(gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA)

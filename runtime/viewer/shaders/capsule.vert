@@ -53,11 +53,15 @@ void main() {
         u /= lu;
     }
     vec3 v = cross(n, u);
-    float grow = 1.2;
-    float R = max(ra, rb) * grow;
-    vec3 q = (corner.x < 0.5 ? pa - u * (ra * grow) : pb + u * (rb * grow)) + v * (corner.y * R);
+    // an end sphere's outline on the plane is an ellipse stretched by 1 / cos of the angle
+    // between its direction and the plane's normal; the quad reaches the larger one's extent
+    // on every side (plus 2 %: sampled outlines need at most 0.9995 of it)
+    float ca = max(-da / max(length(a), 1e-4), 0.2);
+    float cb = max(-db / max(length(b), 1e-4), 0.2);
+    float R = max(ra / ca, rb / cb) * 1.02;
+    vec3 q = (corner.x < 0.5 ? pa - u * R : pb + u * R) + v * (corner.y * R);
 #ifdef FAR
-    v_st = vec2(corner.x < 0.5 ? -ra * grow : lu + rb * grow, corner.y * R);
+    v_st = vec2(corner.x < 0.5 ? -R : lu + R, corner.y * R);
     v_len = vec3(lu, ra, rb);
     v_lq = vec3(dot(u_light, u), dot(u_light, v), dot(u_light, n));
     v_uq = vec3(dot(u_up, u), dot(u_up, v), dot(u_up, n));

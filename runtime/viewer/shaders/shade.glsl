@@ -13,8 +13,11 @@ vec3 shade(vec3 base, vec3 n, vec3 to_eye, float spec_amount) {
     float hemi = 0.5 + 0.5 * dot(n, u_up);
     vec3 ambient = mix(vec3(0.34, 0.31, 0.28), vec3(0.62, 0.68, 0.78), hemi);
     vec3 h = normalize(to_eye + u_light);
-    float spec = pow(max(dot(n, h), 0.0), 24.0) * spec_amount;
-    float rim = pow(1.0 - max(dot(n, to_eye), 0.0), 3.0) * 0.16;
+    float s = max(dot(n, h), 0.0);
+    s *= s; s *= s; s *= s;                      // ^8: the powers as products (no exp2/log2)
+    float spec = s * s * s * spec_amount;        // ^24
+    float r = 1.0 - max(dot(n, to_eye), 0.0);
+    float rim = r * r * r * 0.16;
     return base * (ambient * 0.62 + vec3(1.0, 0.95, 0.86) * diff * 0.72) + vec3(spec)
            + rim * vec3(0.75, 0.82, 1.0);
 }
