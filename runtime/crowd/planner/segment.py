@@ -70,7 +70,8 @@ class SegmentPlanner:
         compiled: splice costs, seed lookahead and collision gathers by the numba kernels.
         waited: idle clips the last seed of :meth:`greedy` inserted for planned characters.
         standing: ``standing(frame) -> (xz (M, 2), radius (M,))``: characters who stand still
-            from ``frame`` on (not planned yet), which the way points bend round; or None.
+            from ``frame`` on (not planned yet; in the World, idle or queued), which the way
+            points bend round; or None.
     """
 
     def __init__(self, lib: MotionLibrary, static=None, collide=None, roadmap=None, env=None,
