@@ -45,6 +45,7 @@ from __future__ import annotations
 import argparse
 import copy
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -219,7 +220,7 @@ def plot_fig11(rows, path, title):
         plotting.verdict_label(ax, x, y, ok)
     ax.set_xlabel("grid spacing (m)")
     ax.set_ylabel("planning time per character (s)")
-    ax.set_title(title, fontsize=9)
+    ax.set_title(textwrap.fill(title, 75), fontsize=9)     # one line would run off the figure
     ax.invert_xaxis()                    # denser to the right, as the paper reads
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
