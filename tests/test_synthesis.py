@@ -208,6 +208,44 @@ def test_compiled_splice_costs_equal_the_numpy_passes(default_graph):
         np.testing.assert_array_equal(j1, j0)
 
 
+def test_compiled_perturbation_makes_the_numpy_pairs(default_graph):
+    """The randomized search's perturbation (section 3.3: one clip of one motion replaced by a
+    parallel alternative), compiled, makes the same pairs from the same random stream as the
+    numpy path -- on kept pairs where only M_f, only M_b, both or neither have clips with
+    alternatives -- and leaves the stream in the same state."""
+    from runtime.crowd.planner import kernels as search_kernels
+    from runtime.crowd.planner.search import RandomizedSearch
+    if not search_kernels.AVAILABLE:
+        pytest.skip("numba is not installed: only the numpy path exists")
+    g = default_graph
+    lib = MotionLibrary(g)
+    rng = np.random.default_rng(7)
+    K, Lf, Lb = 30, 20, 18
+    Fp = -np.ones((K, Lf), np.int64)
+    Bp = -np.ones((K, Lb), np.int64)
+    nfp, nbp = rng.integers(0, 15, K), rng.integers(0, 15, K)
+    no_alt = np.flatnonzero(~lib.has_alt)
+    for p in range(K):
+        Fp[p, :nfp[p]] = g.random_walk(int(g.edge_src[0]), nfp[p], rng) if nfp[p] else []
+        Bp[p, Lb - nbp[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nbp[p], rng) if nbp[p] else []
+        if p % 5 == 0 and len(no_alt):            # a motion with no alternative anywhere
+            Fp[p, :nfp[p]] = no_alt[0]
+    out = []
+    for compiled in (True, False):
+        search = RandomizedSearch(lib, lib.params, None, compiled, None, None, 0, [], [], None,
+                                  np.random.default_rng(42), 0)
+        out.append(search._perturbed(Fp, Bp, nfp, nbp, 400) + (search.rng.random(),))
+    (F1, B1, nf1, nb1, r1), (F0, B0, nf0, nb0, r0) = out
+    np.testing.assert_array_equal(F1, F0)
+    np.testing.assert_array_equal(B1, B0)
+    np.testing.assert_array_equal(nf1, nf0)
+    np.testing.assert_array_equal(nb1, nb0)
+    assert r1 == r0
+    # some pairs differ from every kept pair: the perturbation did something
+    kept = {(tuple(a), tuple(b)) for a, b in zip(Fp, Bp)}
+    assert sum((tuple(a), tuple(b)) not in kept for a, b in zip(F1, B1)) > 200
+
+
 def test_compiled_seed_lookahead_makes_the_numpy_seeds(default_graph):
     """The greedy seed planner (section 3.2) with its two-edge lookahead compiled (numba) walks
     the same edges as with the numpy passes: forward and time-reversed, to a point, to a point

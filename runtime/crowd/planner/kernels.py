@@ -26,7 +26,7 @@ except Exception:
     _nb = None
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "ENABLED", "pair_costs", "lookahead_errors", "edge_samples", "pairs_static_clear"]
+__all__ = ["AVAILABLE", "ENABLED", "pair_costs", "lookahead_errors", "edge_samples", "pairs_static_clear", "perturb"]
 
 ENABLED = AVAILABLE     # new planners use the kernels (set False to run the numpy paths)
 
@@ -376,3 +376,67 @@ def pairs_static_clear(lib, grid_args, margin: float, F, B, i, j, start, goal, s
         rest = np.flatnonzero(ok)
         ok[rest] = _parts_clear(lib, grid_args, need, B[rest], j[rest], goal, False, bm)
     return ok
+
+
+if AVAILABLE:
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _perturb(Fp, Bp, nfp, nbp, parent, r_use, r_f, r_b, u, has_alt, alt_cum, alt_ptr, alt_idx, Fn, Bn, nfn,
+                 nbn):  # pragma: no cover - compiled
+        P, Lf = Fn.shape
+        Lb = Bn.shape[1]
+        for p in range(P):
+            q = parent[p]
+            fa_any = False
+            for c in range(Lf):
+                e = Fp[q, c]
+                Fn[p, c] = e
+                fa_any = fa_any or (e >= 0 and has_alt[e])
+            ba_any = False
+            for c in range(Lb):
+                e = Bp[q, c]
+                Bn[p, c] = e
+                ba_any = ba_any or (e >= 0 and has_alt[e])
+            nfn[p] = nfp[q]
+            nbn[p] = nbp[q]
+            use_f = r_use[p] < 0.5
+            if fa_any and not ba_any:
+                use_f = True
+            elif ba_any and not fa_any:
+                use_f = False
+            if use_f and fa_any:
+                row, r, L = Fn, r_f, Lf
+            elif not use_f and ba_any:
+                row, r, L = Bn, r_b, Lb
+            else:
+                continue
+            # argmax of the random numbers over the clips with an alternative (first maximum)
+            col = 0
+            top = -1.0
+            for c in range(L):
+                e = row[p, c]
+                v = r[p, c] if (e >= 0 and has_alt[e]) else 0.0
+                if v > top:
+                    top = v
+                    col = c
+            e = row[p, col]
+            k = np.searchsorted(alt_cum, e + u[p], side="right")
+            k = min(max(k, alt_ptr[e]), alt_ptr[e + 1] - 1)
+            row[p, col] = alt_idx[k]
+
+
+def perturb(lib, Fp, Bp, nfp, nbp, parent, r_use, r_f, r_b, u):
+    """The randomized search's perturbation (:meth:`RandomizedSearch._perturbed`) in one
+    compiled loop per pair, from the same random draws: pair ``p`` copies kept pair
+    ``parent[p]`` and replaces one clip that has parallel alternatives -- in M_f when
+    ``r_use[p] < 0.5`` (or only M_f has such clips), else in M_b; the clip with the largest
+    ``r_f[p]`` / ``r_b[p]`` among them -- by the alternative ``u[p]`` draws. Returns
+    (F, B, nf, nb), the same arrays as the numpy path."""
+    P = len(parent)
+    Fn = np.empty((P, Fp.shape[1]), np.int64)
+    Bn = np.empty((P, Bp.shape[1]), np.int64)
+    nfn = np.empty(P, np.asarray(nfp).dtype)
+    nbn = np.empty(P, np.asarray(nbp).dtype)
+    _perturb(np.ascontiguousarray(Fp, np.int64), np.ascontiguousarray(Bp, np.int64), np.asarray(nfp),
+             np.asarray(nbp), np.asarray(parent, np.int64), r_use, r_f, r_b, u, lib.has_alt, lib.alt_cum,
+             lib.alt_ptr, lib.alt_idx, Fn, Bn, nfn, nbn)
+    return Fn, Bn, nfn, nbn

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...motion.planar import compose, compose1, compose_inverse, wrap_angle
+from . import kernels
 from .collision import Collider
 from .costs import pair_costs, pairs_static_clear
 from .library import MotionLibrary
@@ -141,6 +142,12 @@ class RandomizedSearch:
         lib, rng = self.lib, self.rng
         Lf, Lb = Fp.shape[1], Bp.shape[1]
         parent = rng.integers(0, len(Fp), size=P)
+        if self.compiled:
+            # the same draws, in the same order, as the numpy path below
+            r_use = rng.random(P)
+            r_f = rng.random((P, Lf))
+            r_b = rng.random((P, Lb))
+            return kernels.perturb(lib, Fp, Bp, nfp, nbp, parent, r_use, r_f, r_b, rng.random(P))
         Fn = Fp[parent].copy()
         Bn = Bp[parent].copy()
         nfn = nfp[parent].copy()
