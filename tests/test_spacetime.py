@@ -79,8 +79,9 @@ def test_forget_before_drops_played_frames_at_compaction():
 
 
 def test_holds_answer_like_cylinders_on_every_frame():
-    """A hold (one disc for frames [0, until)) gives the same answers as the same disc inserted
-    on each of those frames, for every query, in both the compiled and the numpy walk."""
+    """A hold (one disc for frames [0, until), or a goal's from a later frame to the end) gives
+    the same answers as the same disc inserted on each of those frames, for every query, in
+    both the compiled and the numpy walk; releasing an owner's start hold keeps its goal's."""
     from runtime.crowd import spacetime
     from runtime.crowd.reservations import Reservations
     rng = np.random.default_rng(3)
@@ -96,6 +97,17 @@ def test_holds_answer_like_cylinders_on_every_frame():
         c, until = rng.uniform(-5, 5, 2), int(rng.integers(20, n_frames))
         held.hold(o, c, 0.35, until)
         dense.insert(o, np.arange(until), np.repeat(c[None], until, 0), 0.35)
+    goal_from = {}
+    for o in range(20, 26):
+        c, start = rng.uniform(-5, 5, 2), int(rng.integers(1, n_frames - 10))
+        goal_from[o] = (start, float(c[0]))
+        held.hold(o, c, 0.35, n_frames, start=start, kind="goal")
+        dense.insert(o, np.arange(start, n_frames), np.repeat(c[None], n_frames - start, 0), 0.35)
+    c0, c1 = rng.uniform(-5, 5, 2), rng.uniform(-5, 5, 2)
+    held.hold(26, c0, 0.35, 40)
+    held.hold(26, c1, 0.35, n_frames, start=70, kind="goal")
+    held.release_hold(26)
+    dense.insert(26, np.arange(70, n_frames), np.repeat(c1[None], n_frames - 70, 0), 0.35)
     held.release_hold(9)
     dense.remove_owner(9)
     held.remove_owner(10)
@@ -114,6 +126,12 @@ def test_holds_answer_like_cylinders_on_every_frame():
                                   dense.any_overlap_runs(q_f, q_xz, 0.3, counts))
         finally:
             spacetime.ENABLED = old
-    for f in (0, 50, 119):
+    for f in (0, 50, 75, 119):
         a, b = held.at_frame(f), dense.at_frame(f)
         assert sorted(map(tuple, np.round(a[0], 5))) == sorted(map(tuple, np.round(b[0], 5)))
+    # standing from a frame on: the goal holds that have begun by then (no start hold lasts)
+    xz, r = held.standing(80)
+    begun = {round(x, 6) for f, x in goal_from.values() if f <= 80} | {round(float(c1[0]), 6)}
+    assert {round(float(x), 6) for x in xz[:, 0]} == begun
+    held.remove_owner(26)
+    assert len(held.standing(80)[0]) == len(begun) - 1

@@ -3,8 +3,9 @@ bounding cylinders (:class:`~runtime.crowd.spacetime.SpaceTimeIndex`), plus, per
 cylinder on every frame as a dense array, so "who is where at frame f" is one slice -- what a
 space-time route search (:mod:`runtime.crowd.planner.route`) reads step by step.
 
-*Holds* are characters not planned yet standing (or sitting) at their start: one disc from
-frame 0 to a last frame (:meth:`Reservations.hold`). They answer every query like cylinders
+*Holds* are characters not planned yet standing (or sitting) at their start -- one disc from
+frame 0 to a last frame -- or, from the frame they may first arrive, at their last goal
+(:meth:`Reservations.hold`). They answer every query like cylinders
 stored on each of those frames, but are kept as one row each in a 2D grid beside the index,
 so holding the starts of a 500-character crowd costs 500 rows, not 500 per frame.
 
@@ -27,13 +28,15 @@ __all__ = ["Reservations"]
 
 
 def _hold_hits_numpy(frames, xz, radius, margin, ignore_owner, first_only, rows, active):
-    """(query sample indices, owners) of the (sample, hold) overlaps; rows: x, z, r, owner, until."""
+    """(query sample indices, owners) of the (sample, hold) overlaps; rows: x, z, r, owner,
+    until, from."""
     live = np.flatnonzero(active & (rows[:, 3] != ignore_owner))
     if len(live) == 0:
         return np.zeros(0, np.int64), np.zeros(0)
     h = rows[live]
     d = np.hypot(xz[:, None, 0] - h[None, :, 0], xz[:, None, 1] - h[None, :, 1])
-    bad = (d < h[None, :, 2] + radius[:, None] + margin) & (frames[:, None] < h[None, :, 4])
+    bad = (d < h[None, :, 2] + radius[:, None] + margin) & (frames[:, None] < h[None, :, 4]) \
+        & (frames[:, None] >= h[None, :, 5])
     q, k = np.nonzero(bad)
     if first_only and len(q):
         q, k = q[:1], k[:1]
@@ -63,7 +66,8 @@ if _nb is not None:
                     c = i * nz + j
                     for t in range(start[c], start[c + 1]):
                         h = items[t]
-                        if not active[h] or np.int64(rows[h, 3]) == ignore_owner or frames[s] >= rows[h, 4]:
+                        if not active[h] or np.int64(rows[h, 3]) == ignore_owner or frames[s] >= rows[h, 4] \
+                                or frames[s] < rows[h, 5]:
                             continue
                         if np.hypot(rows[h, 0] - xz[s, 0], rows[h, 1] - xz[s, 1]) < rows[h, 2] + radius[s] + margin:
                             out_q, out_o = push_hit(out_q, out_o, m, s, rows[h, 3])
@@ -85,23 +89,24 @@ class Reservations(SpaceTimeIndex):
         super().__init__(cell=cell)
         self.n_frames = int(n_frames)
         self._xzr = np.full((0, self.n_frames, 3), np.nan, dtype=np.float32)
-        self._holds = np.zeros((0, 5))            # x, z, r, owner, until (frames before it)
-        self._hold_of: dict[int, int] = {}        # owner -> row
+        self._holds = np.zeros((0, 6))            # x, z, r, owner, until (frames before it), from
+        self._hold_of: dict[tuple, int] = {}      # (owner, kind) -> row
         self._active = np.zeros(0, dtype=bool)
         self._grid = None
 
     # -- holds -------------------------------------------------------------------------------
-    def hold(self, owner: int, xz, radius: float, until: int) -> None:
-        """Hold a disc at ``xz`` (2,) of ``radius`` for frames ``[0, until)`` for ``owner``
-        (again after :meth:`release_hold`: the same disc comes back)."""
+    def hold(self, owner: int, xz, radius: float, until: int, start: int = 0, kind: str = "start") -> None:
+        """Hold a disc at ``xz`` (2,) of ``radius`` for frames ``[start, until)`` for ``owner``
+        (again after :meth:`release_hold`: the same disc comes back). An owner has one hold of
+        each ``kind`` ("start": where it stands until planned; "goal": where it will stand)."""
         owner = int(owner)
-        row = np.array([float(xz[0]), float(xz[1]), float(radius), owner, float(until)])
-        k = self._hold_of.get(owner)
+        row = np.array([float(xz[0]), float(xz[1]), float(radius), owner, float(until), float(start)])
+        k = self._hold_of.get((owner, kind))
         if k is None or not np.array_equal(self._holds[k], row):
             k = len(self._holds)
             self._holds = np.concatenate([self._holds, row[None]])
             self._active = np.concatenate([self._active, [False]])
-            self._hold_of[owner] = k
+            self._hold_of[(owner, kind)] = k
             self._grid = None
         self._active[k] = True
         self.max_radius = max(self.max_radius, float(radius))
@@ -109,16 +114,17 @@ class Reservations(SpaceTimeIndex):
     def standing(self, frame: int, ignore_owner: int | None = None):
         """(xz (M, 2), radius (M,)) of the holds that last from ``frame`` to the end: the
         characters who stand still there (not planned yet)."""
-        h = self._active & (self._holds[:, 4] >= self.n_frames)
+        h = self._active & (self._holds[:, 4] >= self.n_frames) & (self._holds[:, 5] <= frame)
         if ignore_owner is not None:
             h &= self._holds[:, 3] != ignore_owner
         return self._holds[h, :2], self._holds[h, 2]
 
-    def release_hold(self, owner: int) -> None:
-        """Drop ``owner``'s hold (if any)."""
-        k = self._hold_of.get(int(owner))
-        if k is not None:
-            self._active[k] = False
+    def release_hold(self, owner: int, kind: str | None = "start") -> None:
+        """Drop ``owner``'s hold of ``kind`` (None: every kind), if any."""
+        for kd in (("start", "goal") if kind is None else (kind,)):
+            k = self._hold_of.get((int(owner), kd))
+            if k is not None:
+                self._active[k] = False
 
     def _hold_grid(self):
         if self._grid is None:
@@ -191,7 +197,7 @@ class Reservations(SpaceTimeIndex):
 
     def remove_owner(self, owner: int) -> None:
         super().remove_owner(owner)
-        self.release_hold(owner)
+        self.release_hold(owner, None)
         if owner < len(self._xzr):
             self._xzr[owner] = np.nan
 
@@ -207,7 +213,7 @@ class Reservations(SpaceTimeIndex):
                 ok[ignore_owner] = False
             xz, r = row[ok, :2].astype(np.float64), row[ok, 2].astype(np.float64)
         if self._active.any():
-            h = self._active & (self._holds[:, 4] > frame)
+            h = self._active & (self._holds[:, 4] > frame) & (self._holds[:, 5] <= frame)
             if ignore_owner is not None:
                 h &= self._holds[:, 3] != ignore_owner
             xz = np.concatenate([xz, self._holds[h, :2]])

@@ -22,7 +22,7 @@ from .reservations import Reservations
 from .tracks import Track
 
 __all__ = ["CharacterResult", "CrowdResult", "PlanContext", "plan_scenario", "plan_one", "repair",
-           "start_node", "seat_hold", "seated_radius", "crowd_order", "ORDERS", "REPAIR_BLOCKERS"]
+           "start_node", "seat_hold", "hold_goal", "seated_radius", "crowd_order", "ORDERS", "REPAIR_BLOCKERS"]
 
 
 @dataclass
@@ -116,6 +116,9 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
             holds[ci] = (np.asarray(sc.characters[ci].position, float), radius, hold)
             ctx.index.hold(ci, *holds[ci])
     held = HeldStarts(holds)
+    if policy.reserve_goals:
+        for ci in order:
+            hold_goal(ctx, ci)
     results: dict[int, CharacterResult] = {}
     for ci in order:
         ctx.index.remove_owner(ci)          # its start hold (if any) gives way to its plan
@@ -268,6 +271,22 @@ def start_hold(ctx: PlanContext, c) -> tuple[int, float]:
     if mode == "needed" or seated:
         return min(seat_hold(c, ctx.graph, ctx.fps, standing=not seated), ctx.n_total), radius
     return 0, radius
+
+
+def hold_goal(ctx: PlanContext, ci: int) -> None:
+    """Hold character ``ci``'s last goal (where it stands to the end) from the opening of that
+    goal's window until it is planned (``CrowdPolicy.reserve_goals``): characters planned before
+    it then keep off the place after it may arrive -- as Čáp, Novák, Kleiner and Selecký (2015)
+    have every path avoid the other agents' endpoints. Untimed goals are not held."""
+    c = ctx.sc.characters[ci]
+    g = c.goals[-1] if c.goals else None
+    if g is None or g.position is None or g.time is None:
+        return
+    f0 = int(np.floor(g.time[0] * ctx.fps))
+    if f0 >= ctx.n_total:
+        return
+    radius = seated_radius(ctx.graph) if g.kind == "seat" else standing_radius(ctx.graph, ctx.still)
+    ctx.index.hold(ci, np.asarray(g.position, float), radius, ctx.n_total, start=f0, kind="goal")
 
 
 def goal_holds(ctx: PlanContext, ci: int, holds) -> list:

@@ -99,5 +99,7 @@ class CrowdPolicy:
     reserve_starts: str = "all"    # characters' starts held until they are planned: "none" (seated
     #                                starts while they need not leave), "needed" (any start while
     #                                it need not leave), "all" (any start, the whole scenario)
+    reserve_goals: bool = False    # a last goal with a window is held from its opening until its
+    #                                character is planned (runtime.crowd.scheduler.hold_goal)
     reuse_motions: bool = True     # a motion found for one character is tried first for the next
     #                                with the same task relative to its start (motion_cache)
