@@ -710,6 +710,33 @@ def test_a_seated_character_holds_its_seat_until_it_is_planned(default_graph):
     assert rep.summary()["character_overlap_pairs"] == 0 and not res.characters[1].warnings
 
 
+def test_a_held_goal_is_kept_clear_from_its_window_by_characters_planned_before(default_graph):
+    """With ``reserve_goals``, a character planned first walks round the place where one planned
+    after it will stand from its window's opening (straight on, it walks through it then); the
+    second arrives there clean."""
+    from runtime.crowd.planner import CrowdPolicy
+    from runtime.crowd.scheduler import standing_radius
+    from runtime.crowd.idle import still_nodes
+    g = default_graph
+    data = {"name": "goal-hold", "duration": 16.0, "seed": 0, "synthesis": {"passes": 1},
+            "character": [
+                {"name": "walker", "start": {"position": [-6.0, 0.0], "heading": 90.0, "pose": "stand"},
+                 "goal": [{"position": [6.0, 0.0]}]},
+                {"name": "stander", "start": {"position": [0.0, 5.0], "heading": 180.0, "pose": "stand"},
+                 "goal": [{"position": [0.0, 0.0], "time": [3.0, 4.0]}]}]}
+    sc = parse_scenario(data, node_labels=set(g.node_labels_all()))
+    radius = standing_radius(g, still_nodes(g, sc.epsilon, 30.0))
+    gaps = {}
+    for held in (False, True):
+        res = plan_scenario(sc, g, policy=CrowdPolicy(reserve_goals=held))
+        walker = res.characters[0].track.root
+        gaps[held] = (np.hypot(walker[90:, 0], walker[90:, 1]) - radius).min()
+        if held:
+            rep = check_crowd(sc, {c.name: c.track for c in res.characters}, g)
+            assert rep.summary()["character_overlap_pairs"] == 0 and not res.characters[1].warnings
+    assert gaps[False] < 0.0 < gaps[True]      # through the held place, and round it
+
+
 def test_the_final_test_finds_the_first_collision_and_collides_early_uses_it(default_graph):
     """final_collision returns the first output frame whose cylinder hits a planned character
     (the compiled index stops at it), one past the motion when only the held end position is
