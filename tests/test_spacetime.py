@@ -108,6 +108,11 @@ def test_holds_answer_like_cylinders_on_every_frame():
     held.hold(26, c1, 0.35, n_frames, start=70, kind="goal")
     held.release_hold(26)
     dense.insert(26, np.arange(70, n_frames), np.repeat(c1[None], n_frames - 70, 0), 0.35)
+    # a start hold covers every frame before its end, negative ones too (a backward seed's)
+    c2 = np.array([20.0, 20.0])
+    held.hold(27, c2, 0.35, 30)
+    assert held.overlaps(np.array([-5, 10, 40]), np.repeat(c2[None], 3, 0), 0.3).tolist() == [True, True, False]
+    held.remove_owner(27)
     held.release_hold(9)
     dense.remove_owner(9)
     held.remove_owner(10)

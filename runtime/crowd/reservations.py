@@ -95,12 +95,14 @@ class Reservations(SpaceTimeIndex):
         self._grid = None
 
     # -- holds -------------------------------------------------------------------------------
-    def hold(self, owner: int, xz, radius: float, until: int, start: int = 0, kind: str = "start") -> None:
-        """Hold a disc at ``xz`` (2,) of ``radius`` for frames ``[start, until)`` for ``owner``
-        (again after :meth:`release_hold`: the same disc comes back). An owner has one hold of
-        each ``kind`` ("start": where it stands until planned; "goal": where it will stand)."""
+    def hold(self, owner: int, xz, radius: float, until: int, start: int | None = None, kind: str = "start") -> None:
+        """Hold a disc at ``xz`` (2,) of ``radius`` for frames before ``until`` (from ``start``
+        on; None: every frame before) for ``owner`` (again after :meth:`release_hold`: the same
+        disc comes back). An owner has one hold of each ``kind`` ("start": where it stands until
+        planned; "goal": where it will stand)."""
         owner = int(owner)
-        row = np.array([float(xz[0]), float(xz[1]), float(radius), owner, float(until), float(start)])
+        row = np.array([float(xz[0]), float(xz[1]), float(radius), owner, float(until),
+                        -np.inf if start is None else float(start)])
         k = self._hold_of.get((owner, kind))
         if k is None or not np.array_equal(self._holds[k], row):
             k = len(self._holds)

@@ -31,7 +31,7 @@ class SearchParams:
     #                                obstacles before they may join the population (0: off) ...
     static_filter_slack: float = 0.1  # ... forgiving this much overlap (m)
     reseed_after: int = 20         # iterations after which a search whose splices collide makes new seeds
-    retime_budget: int = 0         # colliding splices per search tried again at other durations (0: none)
+    retime_budget: int = 40        # colliding splices per search tried again at other durations (0: none)
     retime_tries: int = 12         # durations tried per colliding splice (nearest first)
     retime_step: int = 3           # frames between those durations
     split_resample: bool = True    # resample the two spliced parts separately (junction on a frame)

@@ -12,9 +12,9 @@ new pairs below eps. On top of the paper's search:
   is rarely improved by one random swap).
 * Pairs near acceptance whose unspliced parts cut into a static obstacle leave the population
   (``static_filter``), so the search does not converge on motions that cut a corner.
-* Optionally (``retime_budget`` > 0; off by default, see docs/decisions.md), a splice within
-  eps that collides with a planned character is tried at the nearest other durations the
-  window and eps_t allow (``retime_*``): the same motion a little slower or faster.
+* A splice within eps that collides with a planned character is tried at the nearest other
+  durations the window and eps_t allow (``retime_*``): the same motion a little slower or
+  faster passes the others at other moments.
 """
 from __future__ import annotations
 
