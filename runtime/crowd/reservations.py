@@ -3,9 +3,9 @@ bounding cylinders (:class:`~runtime.crowd.spacetime.SpaceTimeIndex`), plus, per
 cylinder on every frame as a dense array, so "who is where at frame f" is one slice -- what a
 space-time route search (:mod:`runtime.crowd.planner.route`) reads step by step.
 
-*Holds* are characters not planned yet standing (or sitting) at their start -- one disc from
-frame 0 to a last frame -- or, from the frame they may first arrive, at their last goal
-(:meth:`Reservations.hold`). They answer every query like cylinders
+*Holds* are characters not planned yet standing (or sitting) at their start -- one disc on
+every frame before a last one (negative frames too: a backward seed's queries) -- or, from the
+frame they may first arrive, at their last goal (:meth:`Reservations.hold`). They answer every query like cylinders
 stored on each of those frames, but are kept as one row each in a 2D grid beside the index,
 so holding the starts of a 500-character crowd costs 500 rows, not 500 per frame.
 
