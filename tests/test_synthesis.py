@@ -420,10 +420,33 @@ def test_further_tries_at_a_failed_segment_get_retry_n_max_iterations(default_gr
                              "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0,
                                                                     "pose": "stand"},
                                             "goal": [{"position": [0.0, 4.0]}]}]})
-        prm = SearchParams(eps=sc.epsilon, n_max=40)
+        prm = SearchParams(eps=sc.epsilon, n_max=40, hopeless_cost=0.0)      # every search runs its limit
         res = plan_scenario(sc, default_graph, params=prm, policy=CrowdPolicy(retry_n_max=15))
         assert res.characters[0].warnings
         assert res.characters[0].iterations == want
+
+
+def test_a_search_far_above_eps_gives_up_early(default_graph):
+    """A goal 9 m away with a window closing after 2 s: no motion gets near eps. The search
+    stops after ``hopeless_after`` iterations and the segment is not searched again from the
+    same seeds; with ``hopeless_cost`` 0 it spends all of n_max. A goal that can be met is
+    still met."""
+    lib = MotionLibrary(default_graph)
+    node = int(default_graph.nodes_with_label("stand")[0])
+    start = Config(node, 0.0, 0.0, 0.0, 0)
+    far = Goal(np.array([0.0, 9.0]), 0.0, None, (1.5, 2.0))
+    spent = {}
+    for cost in (4.0, 0.0):
+        prm = dataclasses.replace(lib.params, n_max=240, hopeless_after=20, hopeless_cost=cost)
+        res = run_to_completion(SegmentPlanner(lib, params=prm).run(start, far, np.random.default_rng(3)))
+        assert res.warning and not res.ok
+        spent[cost] = res.iterations
+    assert spent[4.0] == 20
+    assert spent[0.0] == 240
+    near = Goal(np.array([0.0, 5.0]), 0.0, None, (4.0, 7.0))
+    prm = dataclasses.replace(lib.params, hopeless_after=20, hopeless_cost=4.0)
+    res = run_to_completion(SegmentPlanner(lib, params=prm).run(start, near, np.random.default_rng(3)))
+    assert res.ok and not res.warning
 
 
 def test_change_time_is_the_quickest_state_change(default_graph):

@@ -31,6 +31,8 @@ class SearchParams:
     #                                obstacles before they may join the population (0: off) ...
     static_filter_slack: float = 0.1  # ... forgiving this much overlap (m)
     reseed_after: int = 20         # iterations after which a search whose splices collide makes new seeds
+    hopeless_after: int = 20       # iterations after which a search still above ``hopeless_cost`` x eps,
+    hopeless_cost: float = 4.0     # with no splice within eps, gives its segment up (0: never)
     retime_budget: int = 40        # colliding splices per search tried again at other durations (0: none)
     retime_tries: int = 12         # durations tried per colliding splice (nearest first)
     retime_step: int = 3           # frames between those durations

@@ -54,6 +54,9 @@ class RandomizedSearch:
         iterations: spent.
         best: (cost, F row, nf, B row, nb, i, j) of the cheapest pair seen.
         collision_at: (xz, direction) of the first collision of a splice within eps, or None.
+        hopeless: the search stopped early because its best pair stayed far above eps
+            (``hopeless_cost`` x eps after ``hopeless_after`` iterations): these seeds cannot
+            be adjusted into the goal, and searching them longer does not help.
     """
 
     def __init__(self, lib: MotionLibrary, params: SearchParams, collider: Collider, compiled: bool, start: Config,
@@ -66,6 +69,7 @@ class RandomizedSearch:
         self.collision_at = None
         self.iterations = 0
         self.best = None
+        self.hopeless = False
         self.retimes = params.retime_budget     # colliding splices that may be tried at other durations
         self.static_memo: dict = {}             # parts of pairs already tested against static obstacles
 
@@ -236,6 +240,10 @@ class RandomizedSearch:
             costp = allc[keep]
             if self.collision_at is not None and self.iterations >= p.reseed_after and costp[0] <= eps_p:
                 # below eps but colliding for a while: better seeds are needed
+                break
+            if (p.hopeless_cost and self.iterations >= p.hopeless_after and self.collision_at is None
+                    and self.best[0] > p.hopeless_cost * eps_p):
+                self.hopeless = True
                 break
             yield Step.SEARCH
         return None

@@ -139,7 +139,9 @@ class SegmentPlanner:
         When the search keeps finding splices below eps that collide with characters already
         planned (section 3.3's final test), the seeds are made again through a detour way point
         beside the first collision, alternately left and right and further out (:data:`DETOURS`);
-        the iterations of all attempts count against N_max.
+        the iterations of all attempts count against N_max. A search that stays far above eps
+        (``params.hopeless_cost``; :attr:`.search.RandomizedSearch.hopeless`) ends the segment's
+        search: its seeds cannot be adjusted into the goal, and the ladder tries what can.
 
         With a :attr:`cache`, motions found earlier for the same task (another character's,
         placed at this start) are tried first, each with the final collision test; the search
@@ -216,7 +218,7 @@ class SegmentPlanner:
                 tried_detours += 1
                 if not queue:
                     queue.append(base)
-            elif result is None and not queue:
+            elif result is None and not queue and not search.hopeless:
                 queue.append(base)
         if result is None:
             cost, Frow, nf, Brow, nb, i, j = best_overall
