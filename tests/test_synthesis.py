@@ -449,6 +449,24 @@ def test_a_search_far_above_eps_gives_up_early(default_graph):
     assert res.ok and not res.warning
 
 
+def test_the_relaxed_rung_keeps_a_reserve_when_the_rung_budget_is_spent(default_graph):
+    """With no rung budget at all, a segment that cannot meet eps still tries the two relaxed
+    eps scales with ``relaxed_reserve`` iterations each before it is given up; with no reserve
+    it is given up at once. (The other start node's try gets retry_n_max.)"""
+    sc = parse_scenario({"name": "one", "duration": 8.0, "seed": 0,
+                         "synthesis": {"passes": 1, "epsilon": [1e-7, 1e-5, 1e-7]},
+                         "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+                                        "goal": [{"position": [0.0, 4.0]}]}]})
+    spent = {}
+    for reserve in (7, 0):
+        prm = SearchParams(eps=sc.epsilon, n_max=40, hopeless_cost=0.0)
+        res = plan_scenario(sc, default_graph, params=prm,
+                            policy=CrowdPolicy(retry_n_max=15, rung_budget=0, relaxed_reserve=reserve))
+        assert [s.kind for s in res.characters[0].ladder] == ["waiting"]
+        spent[reserve] = res.characters[0].iterations
+    assert spent == {7: 40 + 2 * 7 + 15, 0: 40 + 15}
+
+
 def test_change_time_is_the_quickest_state_change(default_graph):
     """MotionLibrary.change_time against a plain Bellman-Ford over the clips: the quickest
     motion from the walking nodes into a carrying pose (picking a box up), and back."""
@@ -528,15 +546,18 @@ def test_splice_to_a_given_number_of_frames(default_graph):
                   (4.0, 8.0), frames=int(9.0 * 30)) is None
 
 
-def _repair_setup(monkeypatch, plans):
+def _repair_setup(monkeypatch, plans, lead=False):
     """Three planned characters (a, b at rest apart; c failed, standing on a) and a fake
-    planner returning ``plans[(character, attempt)]``."""
+    planner returning ``plans[(character, attempt)]``. ``lead``: a failed instead, standing
+    at 0, and c's goal is timed by a's arrival ('after'), c standing at 9."""
     import types
     import runtime.crowd.scheduler as sched
     from runtime.crowd.spacetime import SpaceTimeIndex
+    goal = {"position": [1.0, 0.0]}
+    after = {"position": [1.0, 0.0], "after": {"character": "a", "goal": 0, "within": [0.0, 2.0]}}
     sc = parse_scenario({"name": "three", "duration": 1.0, "seed": 0, "character": [
-        {"name": n, "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"}, "goal": [{"position": [1.0, 0.0]}]}
-        for n in ("a", "b", "c")]})
+        {"name": n, "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+         "goal": [after if lead and n == "c" else goal]} for n in ("a", "b", "c")]})
     graph = types.SimpleNamespace(frame_radius=np.full(4, 0.4))
 
     def result(name, x, warnings=()):
@@ -548,6 +569,9 @@ def _repair_setup(monkeypatch, plans):
     ctx = sched.PlanContext(sc, graph, None, None, SearchParams(), CrowdPolicy(), None, 30.0, 31, None,
                          SpaceTimeIndex(cell=1.2), None, None)
     results = {0: result("a", 0.0), 1: result("b", 5.0), 2: result("c", 0.2, ["c collides"])}
+    if lead:
+        results = {0: result("a", 0.0, ["a waits"]), 1: result("b", 5.0),
+                   2: result("c", 9.0, ["c: its 'after' constraint is dropped"])}
     for ci, r in results.items():
         ctx.insert(ci, r.track)
     made = {key: result(*spec) for key, spec in plans.items()}
@@ -580,6 +604,32 @@ def test_repair_puts_everything_back_when_a_blocker_fails(monkeypatch):
     assert results[2].seconds == 4.0          # its old plan and three tries (one of them a's)
     probe = lambda x: ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.05]))
     assert 0 in probe(0.0) and not probe(2.5) and set(probe(5.0)) == {1}
+
+
+def test_a_failed_lead_is_repaired_with_the_characters_it_times(monkeypatch):
+    """a failed and c's goal is timed by a's arrival: the repair takes c out, plans a again
+    (clean, at 2.5), then c after it (clean, at 8): both kept, in the index too, and c is not
+    repaired a second time."""
+    sched, ctx, results, made = _repair_setup(monkeypatch, {(0, 1): ("a", 2.5), (2, 4): ("c", 8.0)}, lead=True)
+    sched.repair(ctx, results, [0, 2], 1)
+    assert results[0] is made[(0, 1)] and results[2] is made[(2, 4)]
+    assert results[0].seconds == 2.0 and results[2].seconds == 2.0
+    probe = lambda x: set(ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.1])))
+    assert probe(2.5) == {0} and probe(8.0) == {2} and probe(5.0) == {1} and not probe(0.0) and not probe(9.0)
+
+
+def test_a_lead_repair_is_undone_when_its_group_is_no_better(monkeypatch):
+    """Same, but c comes out with two warnings after a's new plan: the group is no better, so
+    a's and c's old plans stay (their time counted), in the index too."""
+    sched, ctx, results, made = _repair_setup(
+        monkeypatch, {(0, 1): ("a", 2.5), (2, 4): ("c", 8.0, ["c late", "c relaxed"])}, lead=True)
+    old = dict(results)
+    sched.repair(ctx, results, [0], 1)
+    assert results[0].track is old[0].track and results[0].warnings == ["a waits"]
+    assert results[2].track is old[2].track and results[1] is old[1]
+    assert results[0].seconds == 2.0 and results[2].seconds == 2.0
+    probe = lambda x: set(ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.1])))
+    assert probe(0.0) == {0} and probe(9.0) == {2} and not probe(2.5) and not probe(8.0)
 
 
 def test_a_seat_is_approached_from_in_front(default_graph):

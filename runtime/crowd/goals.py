@@ -21,8 +21,10 @@ ladder, each rung reported:
    clear of everyone; if even that is not clear, stand at the start for the whole scenario.
 
 Rungs 0-2 keep every constraint; 3-5 give one up and add a warning. The rungs of one segment
-share a budget of search iterations (``CrowdPolicy.rung_budget``): once it is spent the goal
-is given up (waiting), so a character that cannot be planned costs a bounded amount of work.
+share a budget of search iterations (``CrowdPolicy.rung_budget``): once it is spent, the relaxed
+rung still gets ``CrowdPolicy.relaxed_reserve`` iterations per eps scale (a relaxed adjustment
+is better than a goal given up, and than the goals of others timed by it), then the goal is
+given up (waiting), so a character that cannot be planned costs a bounded amount of work.
 The ladder is a generator like the planner (:class:`SegmentLadder`), so the World runs it
 time-sliced too. The result says, per goal, which rung was used (:class:`LadderStep`).
 """
@@ -255,7 +257,14 @@ class SegmentLadder:
             return None, res, None
         first = res
         self.last_blockers = self.blockers(first) if first.collided else {}
-        out = yield from self._ladder(cfg, goal, gi, first)
+        try:
+            out = yield from self._ladder(cfg, goal, gi, first)
+        except RungBudgetSpent:
+            # better a relaxed adjustment than a goal given up (and the goals timed by it)
+            reserve = getattr(self.ctx.policy, "relaxed_reserve", 0)
+            if not (self.give_up and reserve):
+                raise
+            out = yield from self._relaxed(cfg, goal, gi, first, n_max=reserve, rung=False)
         if out is not None and out[2] is not None:
             out[2].blocked_by = self.last_blockers
         return out
@@ -309,7 +318,11 @@ class SegmentLadder:
                 if not res2.warning:
                     delay = max(0.0, res2.end.frame / ctx.fps - goal.window[1])
                     return None, res2, LadderStep(gi, "late", delay_s=delay, reason=first.warning)
-        # 4. a relaxed per-frame adjustment
+        return (yield from self._relaxed(cfg, goal, gi, first))
+
+    def _relaxed(self, cfg: Config, goal: Goal, gi: int, first, n_max=None, rung: bool = True):
+        """Rung 4: the segment planned with eps scaled by :data:`RELAXED_EPS` in turn."""
+        planner = self.planner
         for scale in RELAXED_EPS:
             p2 = replace(planner.p, eps=tuple(e * scale for e in planner.p.eps))
             relaxed = SegmentPlanner(planner.lib, static=planner.collider.static, collide=planner.collider.collide,
@@ -317,7 +330,7 @@ class SegmentLadder:
                                      collide_first=planner.collider.collide_first,
                                      collide_runs=planner.collider.collide_runs)
             relaxed.hold = planner.hold
-            res2 = yield from self.run(cfg, goal, planner=relaxed)
+            res2 = yield from self.run(cfg, goal, planner=relaxed, n_max=n_max, rung=rung)
             if not res2.warning:
                 factor = max(r / e for r, e in zip(res2.rates, planner.p.eps))
                 return None, res2, LadderStep(gi, "relaxed", eps_factor=factor, reason=first.warning)

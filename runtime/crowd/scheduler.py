@@ -8,7 +8,7 @@ final node's self-loop clips with their drift removed) until the end.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -411,72 +411,142 @@ def crowd_order(sc: Scenario, how: str = "file") -> list[int]:
 
 
 def timing_characters(sc) -> set:
-    """Indices of the characters whose arrivals time others' goals (``after``): they are
-    planned once, in the first pass, and never re-planned."""
+    """Indices of the characters whose arrivals time others' goals (``after``)."""
     return {sc.characters.index(sc.character(g.after["character"]))
             for c in sc.characters for g in c.goals if g.after is not None}
 
 
+def dependents(sc) -> dict:
+    """{index: the indices of the characters whose goals its arrivals time ('after'), directly
+    or through others, in planning order}."""
+    idx = {c.name: i for i, c in enumerate(sc.characters)}
+    direct = {}
+    for i, c in enumerate(sc.characters):
+        for g in c.goals:
+            if g.after is not None and idx[g.after["character"]] != i:
+                direct.setdefault(idx[g.after["character"]], set()).add(i)
+    rank = {ci: r for r, ci in enumerate(planning_order(sc))}
+    out = {}
+    for lead in direct:
+        seen, todo = set(), [lead]
+        while todo:
+            for d in direct.get(todo.pop(), ()):
+                if d not in seen:
+                    seen.add(d)
+                    todo.append(d)
+        out[lead] = sorted(seen, key=rank.get)
+    return out
+
+
 def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
     """One repair pass over ``failed`` (see :func:`plan_scenario`); updates ``results`` and
-    the index in place."""
+    the index in place.
+
+    A failed character is planned again in place; if that fails, without the (at most
+    :data:`REPAIR_BLOCKERS`) planned characters it ran into, which are then planned again
+    around it -- kept only if all of them come out clean, else they are put back. A failed
+    character whose arrivals time others' goals (``after``, :func:`dependents`) is repaired
+    with those others taken out, and they are planned again after its new plan: the group's
+    new plans are kept only if the group as a whole is better off (:func:`_badness`, summed),
+    else everything is put back as it was."""
+    deps_of = dependents(ctx.sc)
+    for ci in failed:
+        if not results[ci].warnings:        # mended with its group earlier in this pass
+            continue
+        deps = deps_of.get(ci, [])
+        if not deps:
+            _repair_alone(ctx, results, ci, k, set())
+            continue
+        before = {o: results[o] for o in [ci, *deps]}
+        for d in deps:
+            ctx.index.remove_owner(d)
+        changed = _repair_alone(ctx, results, ci, k, set(deps))
+        if not changed:
+            for d in deps:
+                ctx.insert(d, results[d].track)
+            continue
+        for d in deps:
+            results[d] = plan_one(ctx, results, d, k, attempt=4)
+            ctx.insert(d, results[d].track)
+        if _group_badness(results[o] for o in before) < _group_badness(before.values()):
+            for d in deps:
+                _spent(results[d], before[d])
+            continue
+        # the group is no better: everything as it was (the time spent stays counted)
+        olds = {**changed, **{d: before[d] for d in deps}}
+        for o in olds:
+            ctx.index.remove_owner(o)
+        for o, r in olds.items():
+            now = results[o]
+            extra = (0.0, 0) if o not in deps else (r.seconds, r.iterations)
+            results[o] = replace(r, seconds=now.seconds + extra[0], iterations=now.iterations + extra[1])
+            ctx.insert(o, r.track)
+
+
+def _group_badness(plans) -> tuple:
+    return tuple(int(v) for v in np.sum([_badness(r) for r in plans], axis=0))
+
+
+def _spent(r, *others):
+    r.seconds += sum(o.seconds for o in others)
+    r.iterations += sum(o.iterations for o in others)
+    return r
+
+
+def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set) -> dict:
+    """Character ``ci`` repaired against everyone in the index (see :func:`repair`); the
+    blockers it may displace are never in ``keep`` nor timing others. Returns {owner: its
+    result before} of the characters whose plans it replaced."""
     sc, index = ctx.sc, ctx.index
     timing = timing_characters(sc)
-
-    def spent(r, *others):
-        r.seconds += sum(o.seconds for o in others)
-        r.iterations += sum(o.iterations for o in others)
-        return r
-
-    for ci in failed:
-        if ci in timing:
-            continue
-        old = results[ci]
-        index.remove_owner(ci)
-        new = plan_one(ctx, results, ci, k, attempt=1, give_up=False)
-        if not new.warnings:
-            results[ci] = spent(new, old)
-            ctx.insert(ci, new.track)
-            continue
-        hits = {}
-        for step in new.ladder:
-            for b, n in step.blocked_by.items():
-                hits[b] = hits.get(b, 0) + n
-        hits.update(index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin))
-        blockers = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1])
-                    if b != ci and b not in timing][:REPAIR_BLOCKERS]
-        tried = [new]          # plans made with every other character in place
-        spare = []             # ... and without the blockers (void once they are back)
-        if blockers:
-            if ctx.log:
-                names = ", ".join(sc.characters[b].name for b in blockers)
-                ctx.log(f"{sc.characters[ci].name}: planning it without {names}, then them around it")
+    old = results[ci]
+    index.remove_owner(ci)
+    new = plan_one(ctx, results, ci, k, attempt=1, give_up=False)
+    if not new.warnings:
+        results[ci] = _spent(new, old)
+        ctx.insert(ci, new.track)
+        return {ci: old}
+    hits = {}
+    for step in new.ladder:
+        for b, n in step.blocked_by.items():
+            hits[b] = hits.get(b, 0) + n
+    hits.update(index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin))
+    blockers = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1])
+                if b != ci and b not in timing and b not in keep][:REPAIR_BLOCKERS]
+    tried = [new]          # plans made with every other character in place
+    spare = []             # ... and without the blockers (void once they are back)
+    if blockers:
+        if ctx.log:
+            names = ", ".join(sc.characters[b].name for b in blockers)
+            ctx.log(f"{sc.characters[ci].name}: planning it without {names}, then them around it")
+        for b in blockers:
+            index.remove_owner(b)
+        first = plan_one(ctx, results, ci, k, attempt=2, give_up=False)
+        spare.append(first)
+        again = {}
+        if not first.warnings:
+            ctx.insert(ci, first.track)
             for b in blockers:
+                rb = plan_one(ctx, results, b, k, attempt=3, give_up=False)
+                if rb.warnings:
+                    spare.append(rb)
+                    break
+                again[b] = rb
+                ctx.insert(b, rb.track)
+            if len(again) == len(blockers):
+                changed = {b: results[b] for b in again}
+                for b, rb in again.items():
+                    results[b] = _spent(rb, results[b])
+                results[ci] = _spent(first, old, new)
+                return {ci: old, **changed}
+            spare += list(again.values())
+            index.remove_owner(ci)
+            for b in again:
                 index.remove_owner(b)
-            first = plan_one(ctx, results, ci, k, attempt=2, give_up=False)
-            spare.append(first)
-            again = {}
-            if not first.warnings:
-                ctx.insert(ci, first.track)
-                for b in blockers:
-                    rb = plan_one(ctx, results, b, k, attempt=3, give_up=False)
-                    if rb.warnings:
-                        spare.append(rb)
-                        break
-                    again[b] = rb
-                    ctx.insert(b, rb.track)
-                if len(again) == len(blockers):
-                    for b, rb in again.items():
-                        results[b] = spent(rb, results[b])
-                    results[ci] = spent(first, old, new)
-                    continue
-                spare += list(again.values())
-                index.remove_owner(ci)
-                for b in again:
-                    index.remove_owner(b)
-            for b in blockers:              # as it was
-                ctx.insert(b, results[b].track)
-        cand = min(tried, key=_badness)
-        keep = cand if _badness(cand) < _badness(old) else old
-        results[ci] = spent(keep, *[r for r in [old] + tried + spare if r is not keep])
-        ctx.insert(ci, keep.track)
+        for b in blockers:              # as it was
+            ctx.insert(b, results[b].track)
+    cand = min(tried, key=_badness)
+    keep_plan = cand if _badness(cand) < _badness(old) else old
+    results[ci] = _spent(keep_plan, *[r for r in [old] + tried + spare if r is not keep_plan])
+    ctx.insert(ci, keep_plan.track)
+    return {} if keep_plan is old else {ci: old}

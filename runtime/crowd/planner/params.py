@@ -87,6 +87,8 @@ class CrowdPolicy:
     rung_budget: int | None = 900  # search iterations all the ladder's rungs of one segment may
     #                                spend together (runtime.crowd.goals); None: no bound
     #                                (the other start node, a later departure or arrival, repairs)
+    relaxed_reserve: int = 60      # ... and when it is spent, search iterations the relaxed rung still
+    #                                gets (per eps scale) before the goal is given up (0: none)
     depart_delays: tuple = (2.0, 4.0, 8.0)  # s an untimed goal's start is put off, in turn, when all
     #                                its motions collide (from a node where one can stand still) ...
     depart_within: float = 60.0    # ... and the first collision comes within this many s of the start
