@@ -280,7 +280,11 @@ def edge_samples(lib, edges, cfg, frames0, margin):
 if AVAILABLE:
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading, frame_radius, need, ox, oz,
-                           res, values, gmargin, offset):  # pragma: no cover - compiled
+                           res, values, gmargin, offset, reach, far):  # pragma: no cover - compiled
+        # the whole clip is clear when its start is farther from every obstacle than its
+        # samples reach (see _parts_clear for why ``far`` makes that exact)
+        if sdf_bilinear(x, z, ox, oz, res, values, gmargin) >= reach[e] + far:
+            return True
         ch, sh = np.cos(h), np.sin(h)
         for s in range(samp_ptr[e], samp_ptr[e + 1]):
             gf = samp_frame[s]
@@ -293,7 +297,8 @@ if AVAILABLE:
 
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _parts_static_clear(rows, cut, forward, cfg0, disp, samp_ptr, samp_frame, frame_xz, frame_heading,
-                            frame_radius, need, ox, oz, res, values, gmargin, offset, out):  # pragma: no cover
+                            frame_radius, need, ox, oz, res, values, gmargin, offset, reach, far,
+                            out):  # pragma: no cover
         """Per row: a forward part rows[p, :cut[p]] placed at ``cfg0`` (``forward``), or a
         backward part rows[p, cut[p]:] ending at ``cfg0``, clears the static obstacles."""
         P, L = rows.shape
@@ -306,7 +311,8 @@ if AVAILABLE:
                     if e < 0:
                         continue
                     if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
-                                              frame_radius, need, ox, oz, res, values, gmargin, offset):
+                                              frame_radius, need, ox, oz, res, values, gmargin, offset, reach,
+                                              far):
                         ok = False
                         break
                     ch, sh = np.cos(h), np.sin(h)
@@ -322,14 +328,22 @@ if AVAILABLE:
                     x = x - (ch * disp[e, 0] + sh * disp[e, 1])
                     z = z - (-sh * disp[e, 0] + ch * disp[e, 1])
                     if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
-                                              frame_radius, need, ox, oz, res, values, gmargin, offset):
+                                              frame_radius, need, ox, oz, res, values, gmargin, offset, reach,
+                                              far):
                         ok = False
                         break
             out[p] = ok
 
 
 def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
-    """:func:`_parts_static_clear` of the parts not in ``memo`` (keyed by the part's clips)."""
+    """:func:`_parts_static_clear` of the parts not in ``memo`` (keyed by the part's clips).
+
+    A clip is passed without testing its samples when the sampled distance at its start, d0,
+    is at least its reach R (``lib.samp_reach``: the farthest sample plus its cylinder) plus
+    ``far`` = need + 3 x offset. That decides exactly as the samples would: inside the grid the
+    lookup is within ``offset`` of the true distance, which is 1-Lipschitz, so a sample s at
+    |v| <= R - r_s from the start reads at least d0 - 2 offset - |v| >= r_s + need + offset;
+    outside the grid it reads at least the grid's margin, which ``far`` is only used below."""
     keys = [(rows[p, :cut[p]] if forward else rows[p, cut[p]:]).tobytes() for p in range(len(rows))]
     out = np.empty(len(rows), dtype=np.bool_)
     todo = []
@@ -344,10 +358,13 @@ def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
         got = np.empty(len(t), dtype=np.bool_)
         g = lib.g
         ox, oz, res, values, gmargin, offset = grid_args
+        far = need + 3.0 * offset + 1e-9
+        if gmargin - offset < float(g.frame_radius.max()) + need:
+            far = np.inf        # a sample outside the grid might fail: test every sample
         _parts_static_clear(np.ascontiguousarray(rows[t], np.int64), np.ascontiguousarray(cut[t], np.int64),
                             forward, np.asarray(cfg0, np.float64), lib.disp, lib.samp_ptr, lib.samp_frame,
                             g.frame_xz, g.frame_heading, g.frame_radius, need, ox, oz, res, values, gmargin,
-                            offset, got)
+                            offset, lib.samp_reach, far, got)
         out[t] = got
         if memo is not None:
             for q, p in enumerate(todo):

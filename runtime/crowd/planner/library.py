@@ -46,6 +46,12 @@ class MotionLibrary:
         self.samp_frame = np.concatenate(idx)
         self.samp_edge = np.repeat(np.arange(E), np.diff(self.samp_ptr))
         self.samp_off = self.samp_frame - g.edge_start[self.samp_edge]
+        # per clip: how far its collision samples reach from its start, cylinder included (a clip
+        # that starts farther than that from every obstacle clears them all)
+        reach = (np.hypot(g.frame_xz[self.samp_frame, 0], g.frame_xz[self.samp_frame, 1])
+                 + g.frame_radius[self.samp_frame].astype(np.float64))
+        self.samp_reach = np.zeros(E)
+        np.maximum.at(self.samp_reach, self.samp_edge, reach)
         # alternatives: parallel edges weighted by 1 / distance (Sung, Kovar and Gleicher 2005, section 3.3)
         a1, a2 = self.params.alpha
         aptr, aidx, acum = [0], [], []
