@@ -450,17 +450,18 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
     new plans are kept only if the group as a whole is better off (:func:`_badness`, summed),
     else everything is put back as it was."""
     deps_of = dependents(ctx.sc)
+    timing = timing_characters(ctx.sc)
     for ci in failed:
         if not results[ci].warnings:        # mended with its group earlier in this pass
             continue
         deps = deps_of.get(ci, [])
         if not deps:
-            _repair_alone(ctx, results, ci, k, set())
+            _repair_alone(ctx, results, ci, k, timing)
             continue
         before = {o: results[o] for o in [ci, *deps]}
         for d in deps:
             ctx.index.remove_owner(d)
-        changed = _repair_alone(ctx, results, ci, k, set(deps))
+        changed = _repair_alone(ctx, results, ci, k, timing | set(deps))
         if not changed:
             for d in deps:
                 ctx.insert(d, results[d].track)
@@ -495,10 +496,10 @@ def _spent(r, *others):
 
 def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set) -> dict:
     """Character ``ci`` repaired against everyone in the index (see :func:`repair`); the
-    blockers it may displace are never in ``keep`` nor timing others. Returns {owner: its
-    result before} of the characters whose plans it replaced."""
+    blockers it may displace are never in ``keep`` (the characters whose arrivals time others,
+    and those being planned again with ``ci``). Returns {owner: its result before} of the
+    characters whose plans it replaced."""
     sc, index = ctx.sc, ctx.index
-    timing = timing_characters(sc)
     old = results[ci]
     index.remove_owner(ci)
     new = plan_one(ctx, results, ci, k, attempt=1, give_up=False)
@@ -512,7 +513,7 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set) -
             hits[b] = hits.get(b, 0) + n
     hits.update(index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin))
     blockers = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1])
-                if b != ci and b not in timing and b not in keep][:REPAIR_BLOCKERS]
+                if b != ci and b not in keep][:REPAIR_BLOCKERS]
     tried = [new]          # plans made with every other character in place
     spare = []             # ... and without the blockers (void once they are back)
     if blockers:
