@@ -359,7 +359,7 @@ def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
         g = lib.g
         ox, oz, res, values, gmargin, offset = grid_args
         far = need + 3.0 * offset + 1e-9
-        if gmargin - offset < float(g.frame_radius.max()) + need:
+        if gmargin - offset < lib.max_radius + need:
             far = np.inf        # a sample outside the grid might fail: test every sample
         _parts_static_clear(np.ascontiguousarray(rows[t], np.int64), np.ascontiguousarray(cut[t], np.int64),
                             forward, np.asarray(cfg0, np.float64), lib.disp, lib.samp_ptr, lib.samp_frame,
