@@ -467,6 +467,35 @@ def test_the_relaxed_rung_keeps_a_reserve_when_the_rung_budget_is_spent(default_
     assert spent == {7: 40 + 2 * 7 + 15, 0: 40 + 15}
 
 
+def test_a_motion_that_ends_after_the_scenario_is_never_accepted(default_graph):
+    """The final test rejects a clear motion that ends after the planner's ``deadline`` (one
+    past its frames, like a held end that is hit). A goal 9 m away with no window in a 4 s
+    scenario has no motion that arrives in time: the goal is given up and the character waits,
+    instead of a plan that reports an arrival after the scenario has ended."""
+    from runtime.crowd.planner import SegmentResult
+    g = default_graph
+    m = 90
+    root = np.zeros((m, 3))
+    root[:, 1] = np.linspace(0.0, 3.0, m)
+    fa = np.full(m, int(np.argmin(g.frame_radius)))
+    res = SegmentResult(True, fa, fa, np.zeros(m), root, 100, Config(0, 0.0, 3.0, 0.0, 100 + m - 1), 0.0,
+                        (0.0, 0.0, 0.0), 0, [])
+    planner = SegmentPlanner(MotionLibrary(g))
+    assert planner.final_collision(res) is None
+    planner.deadline = 100 + m - 1
+    assert planner.final_collision(res) is None
+    planner.deadline = 100 + m - 2
+    assert planner.final_collision(res) == m
+    sc = parse_scenario({"name": "short", "duration": 4.0, "seed": 0, "synthesis": {"passes": 1},
+                         "character": [{"name": "c0", "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+                                        "goal": [{"position": [0.0, 9.0]}]}]})
+    out = plan_scenario(sc, g, params=SearchParams(eps=sc.epsilon, n_max=40),
+                        policy=CrowdPolicy(retry_n_max=15, rung_budget=60)).characters[0]
+    assert [s.kind for s in out.ladder] == ["waiting"]
+    assert not any("past the scenario" in w for w in out.warnings)
+    assert len(out.track) == int(round(4.0 * 30)) + 1 and out.arrivals == []
+
+
 def test_change_time_is_the_quickest_state_change(default_graph):
     """MotionLibrary.change_time against a plain Bellman-Ford over the clips: the quickest
     motion from the walking nodes into a carrying pose (picking a box up), and back."""

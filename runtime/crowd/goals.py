@@ -121,7 +121,10 @@ def clear_after(planner, res, index):
     else None."""
     if planner.final_collision(res) != len(res.root):
         return None
-    f2, xz2, r2 = planner.hold(res)
+    tail = planner.hold(res) if planner.hold is not None else None
+    if tail is None:        # (it ends after the deadline: a later arrival would too)
+        return None
+    f2, xz2, r2 = tail
     bad = np.asarray(index.overlaps(f2, xz2, np.asarray(r2, float) + planner.p.margin), dtype=bool)
     if not bad.any():
         return None
@@ -330,6 +333,7 @@ class SegmentLadder:
                                      collide_first=planner.collider.collide_first,
                                      collide_runs=planner.collider.collide_runs)
             relaxed.hold = planner.hold
+            relaxed.deadline = planner.deadline
             res2 = yield from self.run(cfg, goal, planner=relaxed, n_max=n_max, rung=rung)
             if not res2.warning:
                 factor = max(r / e for r, e in zip(res2.rates, planner.p.eps))
@@ -458,6 +462,7 @@ def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False,
                              collide_runs=lambda f, xz, r, cnt: index.any_overlap_runs(f, xz, r, cnt),
                              roadmap=ctx.roadmap, env=ctx.env, params=params)
     planner.cache = ctx.cache
+    planner.deadline = n_total - 1        # a motion that ends after the scenario never arrives
     if ctx.policy.bend_waypoints and hasattr(index, "standing"):
         planner.standing = lambda f: index.standing(f, ignore_owner=ci)
     start = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)

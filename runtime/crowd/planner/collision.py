@@ -36,6 +36,7 @@ class Collider:
     Attributes:
         hold: ``hold(res) -> (frames, xz, radius)`` or None: where the character stays after the
             segment (its idling after a last goal), tested with the segment in the final test.
+        deadline: the last frame a motion may end on (an offline scenario's last frame), or None.
     """
 
     def __init__(self, lib: MotionLibrary, params: SearchParams, static=None, collide=None, collide_first=None,
@@ -54,6 +55,7 @@ class Collider:
                 return np.logical_or.reduceat(np.asarray(collide(f, xz, r), dtype=bool), np.cumsum(cnt) - cnt)
         self.collide_runs = collide_runs
         self.hold = None
+        self.deadline = None
 
     def clear_edges(self, edges: np.ndarray, cfg: np.ndarray, frames0: np.ndarray, moving: bool,
                     compiled: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -112,12 +114,15 @@ class Collider:
     def final_collision(self, res: SegmentResult):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,
         or None (the final test of section 3.3); ``len(res.root)`` when the motion is clear but
-        standing at its end afterwards (:attr:`hold`) would be in someone's way."""
+        ends after :attr:`deadline`, or standing at its end afterwards (:attr:`hold`) would be
+        in someone's way."""
         g, p = self.lib.g, self.p
         rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
         hit = self.first_hit(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
         if hit >= 0:
             return hit
+        if self.deadline is not None and res.start_frame + len(res.root) - 1 > self.deadline:
+            return len(res.root)
         if self.hold is not None:
             tail = self.hold(res)
             if tail is not None and len(tail[0]):

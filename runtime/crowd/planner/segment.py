@@ -97,6 +97,15 @@ class SegmentPlanner:
     def hold(self, fn):
         self.collider.hold = fn
 
+    @property
+    def deadline(self):
+        """The last frame a motion may end on, or None (:attr:`Collider.deadline`)."""
+        return self.collider.deadline
+
+    @deadline.setter
+    def deadline(self, frame):
+        self.collider.deadline = frame
+
     def final_collision(self, res: SegmentResult):
         """The final test of section 3.3 (:meth:`Collider.final_collision`)."""
         return self.collider.final_collision(res)
