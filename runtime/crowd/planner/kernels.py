@@ -342,8 +342,9 @@ def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
     is at least its reach R (``lib.samp_reach``: the farthest sample plus its cylinder) plus
     ``far`` = need + 3 x offset. That decides exactly as the samples would: inside the grid the
     lookup is within ``offset`` of the true distance, which is 1-Lipschitz, so a sample s at
-    |v| <= R - r_s from the start reads at least d0 - 2 offset - |v| >= r_s + need + offset;
-    outside the grid it reads at least the grid's margin, which ``far`` is only used below."""
+    |v| <= R - r_s from the start reads at least d0 - 2 offset - |v| >= r_s + need + offset.
+    Outside the grid a lookup reads the grid's margin, so the shortcut is used only when that
+    margin clears the largest cylinder plus need; otherwise every sample is tested."""
     keys = [(rows[p, :cut[p]] if forward else rows[p, cut[p]:]).tobytes() for p in range(len(rows))]
     out = np.empty(len(rows), dtype=np.bool_)
     todo = []
