@@ -46,7 +46,7 @@ def load_library(name_or_path="default", base: Path | None = None) -> MotionGrap
     if not p.exists():
         if str(name_or_path) == "default":
             raise AssetError(p, "the default motion library has not been built yet: "
-                                "run `crowdweave demo` or `crowdweave author default` once")
+                                "run `crowdweave demo --no-window` once to build it")
         raise AssetError(p, "file not found")
     key = (str(p.resolve()), p.stat().st_mtime_ns)
     if key not in _loaded:
