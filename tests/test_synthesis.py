@@ -496,6 +496,39 @@ def test_a_motion_that_ends_after_the_scenario_is_never_accepted(default_graph):
     assert len(out.track) == int(round(4.0 * 30)) + 1 and out.arrivals == []
 
 
+def test_a_goal_held_in_someones_way_names_who_passes_there_later(default_graph):
+    """When a segment's motion is clear but standing at its last goal afterwards is not (a
+    character planned earlier walks through the goal later), the ladder's blockers are the ones
+    who pass there -- so a repair knows whom to plan again -- and not an empty set."""
+    import types
+    from runtime.crowd.goals import SegmentLadder
+    from runtime.crowd.idle import hold_tail
+    from runtime.crowd.planner import SegmentResult
+    from runtime.crowd.reservations import Reservations
+    g = default_graph
+    lib = MotionLibrary(g)
+    n_total = 400
+    index = Reservations(1.2, n_total)
+    m, f0 = 90, 100
+    root = np.zeros((m, 3))
+    root[:, 1] = np.linspace(0.0, 3.0, m)
+    fa = np.full(m, int(np.argmin(g.frame_radius)))
+    node = int(g.nodes_with_label("stand")[0])
+    res = SegmentResult(True, fa, fa, np.zeros(m), root, f0, Config(node, 0.0, 3.0, 0.0, f0 + m - 1), 0.0,
+                        (0.0, 0.0, 0.0), 0, [])
+    # owner 7 crosses x = -3..3 along z = 3, long after the arrival at frame 189; owner 8 is far off
+    frames = np.arange(250, 280)
+    index.insert(7, frames, np.stack([np.linspace(-3.0, 3.0, 30), np.full(30, 3.0)], axis=1), np.full(30, 0.3))
+    index.insert(8, frames, np.tile([20.0, 20.0], (30, 1)), np.full(30, 0.3))
+    planner = SegmentPlanner(lib, collide=lambda f, xz, r: index.overlaps(f, xz, r))
+    ctx = types.SimpleNamespace(index=index, graph=g, params=SearchParams(), policy=CrowdPolicy())
+    ladder = SegmentLadder(ctx, planner, "c", np.random.default_rng(0), 10, 10)
+    assert planner.final_collision(res) is None and ladder.blockers(res) == {}
+    planner.hold = lambda r: hold_tail(lib, g, r.end, n_total)
+    assert planner.final_collision(res) == m                      # the hold is hit ...
+    assert set(ladder.blockers(res)) == {7}                       # ... by owner 7
+
+
 def test_change_time_is_the_quickest_state_change(default_graph):
     """MotionLibrary.change_time against a plain Bellman-Ford over the clips: the quickest
     motion from the walking nodes into a carrying pose (picking a box up), and back."""
@@ -575,19 +608,24 @@ def test_splice_to_a_given_number_of_frames(default_graph):
                   (4.0, 8.0), frames=int(9.0 * 30)) is None
 
 
-def _repair_setup(monkeypatch, plans, lead=False):
+def _repair_setup(monkeypatch, plans, lead=False, starts=None, seen=None):
     """Three planned characters (a, b at rest apart; c failed, standing on a) and a fake
     planner returning ``plans[(character, attempt)]``. ``lead``: a failed instead, standing
-    at 0, and c's goal is timed by a's arrival ('after'), c standing at 9."""
+    at 0, and c's goal is timed by a's arrival ('after'), c standing at 9. ``starts``: {name:
+    x} of scenario starts (default 0). ``seen``: a dict the fake planner fills with {(character,
+    attempt): the owners in the index at x = 0, 0.5, .., 9.5 at frame 0} when it is called."""
     import types
     import runtime.crowd.scheduler as sched
-    from runtime.crowd.spacetime import SpaceTimeIndex
+    from runtime.crowd.reservations import Reservations
     goal = {"position": [1.0, 0.0]}
     after = {"position": [1.0, 0.0], "after": {"character": "a", "goal": 0, "within": [0.0, 2.0]}}
+    starts = starts or {}
     sc = parse_scenario({"name": "three", "duration": 1.0, "seed": 0, "character": [
-        {"name": n, "start": {"position": [0.0, 0.0], "heading": 0.0, "pose": "stand"},
+        {"name": n, "start": {"position": [starts.get(n, 0.0), 0.0], "heading": 0.0, "pose": "stand"},
          "goal": [after if lead and n == "c" else goal]} for n in ("a", "b", "c")]})
-    graph = types.SimpleNamespace(frame_radius=np.full(4, 0.4))
+    graph = types.SimpleNamespace(frame_radius=np.full(4, 0.4), nodes_with_label=lambda label: np.array([0]),
+                                  edge_src=np.array([0]), edge_dst=np.array([0]), edge_radius=np.array([0.3]))
+    lib = types.SimpleNamespace(max_radius=0.4)
 
     def result(name, x, warnings=()):
         n = 31
@@ -595,8 +633,8 @@ def _repair_setup(monkeypatch, plans, lead=False):
                    np.tile([x, 0.0, 0.0], (n, 1)), 0)
         return sched.CharacterResult(name, tr, [30], [], list(warnings), 1.0, 10)
 
-    ctx = sched.PlanContext(sc, graph, None, None, SearchParams(), CrowdPolicy(), None, 30.0, 31, None,
-                         SpaceTimeIndex(cell=1.2), None, None)
+    ctx = sched.PlanContext(sc, graph, None, None, SearchParams(), CrowdPolicy(), lib, 30.0, 31, None,
+                            Reservations(1.2, 31), None, None)
     results = {0: result("a", 0.0), 1: result("b", 5.0), 2: result("c", 0.2, ["c collides"])}
     if lead:
         results = {0: result("a", 0.0, ["a waits"]), 1: result("b", 5.0),
@@ -604,7 +642,13 @@ def _repair_setup(monkeypatch, plans, lead=False):
     for ci, r in results.items():
         ctx.insert(ci, r.track)
     made = {key: result(*spec) for key, spec in plans.items()}
-    monkeypatch.setattr(sched, "plan_one", lambda ctx, results, ci, k, attempt=0, give_up=True: made[(ci, attempt)])
+
+    def plan_one(ctx, results, ci, k, attempt=0, give_up=True):
+        if seen is not None:
+            seen[(ci, attempt)] = {x / 2: set(ctx.index.overlapping_owners(np.array([0]), np.array([[x / 2, 0.0]]),
+                                                                           np.array([0.05]))) for x in range(20)}
+        return made[(ci, attempt)]
+    monkeypatch.setattr(sched, "plan_one", plan_one)
     return sched, ctx, results, made
 
 
@@ -659,6 +703,34 @@ def test_a_lead_repair_is_undone_when_its_group_is_no_better(monkeypatch):
     assert results[0].seconds == 2.0 and results[2].seconds == 2.0
     probe = lambda x: set(ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.1])))
     assert probe(0.0) == {0} and probe(9.0) == {2} and not probe(2.5) and not probe(8.0)
+
+
+def test_characters_taken_out_for_a_repair_hold_their_starts_until_planned_again(monkeypatch):
+    """a (the lead, failed) is planned again without c, whose goal it times; c starts at 7. While a
+    is planned, c's start is held (as in the first pass), so a's new plan keeps off it; when c is
+    planned again its own hold has given way, and once the repair is done no hold is left."""
+    seen = {}
+    sched, ctx, results, made = _repair_setup(monkeypatch, {(0, 1): ("a", 2.5), (2, 4): ("c", 8.0)}, lead=True,
+                                              starts={"c": 7.0}, seen=seen)
+    sched.repair(ctx, results, [0], 1)
+    assert results[0] is made[(0, 1)] and results[2] is made[(2, 4)]
+    assert seen[(0, 1)][7] == {2} and seen[(0, 1)][9] == set()      # c held at its start, its old plan out
+    assert seen[(2, 4)][7] == set() and seen[(2, 4)][2.5] == {0}     # c planned: its hold gone, a's new plan in
+    probe = lambda x: set(ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.1])))
+    assert probe(7.0) == set() and probe(8.0) == {2} and probe(2.5) == {0}
+
+
+def test_blockers_taken_out_for_a_repair_hold_their_starts_while_the_failed_one_is_planned(monkeypatch):
+    """c fails on a; planned without a, a's start (4) is held, and given way when a is planned again."""
+    seen = {}
+    sched, ctx, results, made = _repair_setup(monkeypatch, {
+        (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5)}, starts={"a": 4.0}, seen=seen)
+    sched.repair(ctx, results, [2], 1)
+    assert results[2] is made[(2, 2)] and results[0] is made[(0, 3)]
+    assert seen[(2, 2)][4] == {0} and seen[(2, 2)][0] == set()       # a's start held, its old plan out
+    assert seen[(0, 3)][4] == set() and seen[(0, 3)][0] == {2}       # c's new plan in
+    probe = lambda x: set(ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.1])))
+    assert probe(4.0) == set() and probe(2.5) == {0}
 
 
 def test_a_seat_is_approached_from_in_front(default_graph):

@@ -273,10 +273,19 @@ class SegmentLadder:
         return out
 
     def blockers(self, res) -> dict:
-        """{owner: samples} of the planned characters ``res``'s motion runs into."""
+        """{owner: samples} of the planned characters ``res``'s motion runs into; when it runs
+        into nobody, the ones that pass where it then stands (the planner's ``hold``: a
+        character planned earlier walks through the last goal after the arrival)."""
         ctx = self.ctx
         rad = np.maximum(ctx.graph.frame_radius[res.frames_a], ctx.graph.frame_radius[res.frames_b]) + ctx.params.margin
-        return ctx.index.overlapping_owners(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
+        out = ctx.index.overlapping_owners(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
+        if not out and self.planner.hold is not None:
+            tail = self.planner.hold(res)
+            if tail is not None and len(tail[0]):
+                f2, xz2, r2 = tail
+                out = ctx.index.overlapping_owners(np.asarray(f2), np.asarray(xz2, dtype=np.float64),
+                                                   np.asarray(r2, dtype=np.float64) + ctx.params.margin)
+        return out
 
     def _ladder(self, cfg: Config, goal: Goal, gi: int, first):
         """Rungs 1-4 after ``first`` failed."""

@@ -21,7 +21,7 @@ from .scenario import Scenario, ScenarioError, planning_order
 from .reservations import Reservations
 from .tracks import Track
 
-__all__ = ["CharacterResult", "CrowdResult", "PlanContext", "plan_scenario", "plan_one", "repair",
+__all__ = ["CharacterResult", "CrowdResult", "PlanContext", "plan_scenario", "plan_one", "repair", "hold_starts",
            "start_node", "seat_hold", "hold_goal", "seated_radius", "crowd_order", "ORDERS", "REPAIR_BLOCKERS"]
 
 
@@ -461,12 +461,15 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
         before = {o: results[o] for o in [ci, *deps]}
         for d in deps:
             ctx.index.remove_owner(d)
-        changed = _repair_alone(ctx, results, ci, k, timing | set(deps))
+        held = hold_starts(ctx, deps)
+        changed = _repair_alone(ctx, results, ci, k, timing | set(deps), held)
         if not changed:
             for d in deps:
+                ctx.index.remove_owner(d)
                 ctx.insert(d, results[d].track)
             continue
         for d in deps:
+            ctx.index.remove_owner(d)       # its start hold gives way to its plan
             results[d] = plan_one(ctx, results, d, k, attempt=4)
             ctx.insert(d, results[d].track)
         if _group_badness(results[o] for o in before) < _group_badness(before.values()):
@@ -494,15 +497,46 @@ def _spent(r, *others):
     return r
 
 
-def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set) -> dict:
+def hold_starts(ctx: PlanContext, owners) -> dict:
+    """Hold the starts of ``owners`` -- characters taken out of the index to be planned again
+    after another -- as the first pass held them until they were planned
+    (:func:`start_hold`), so that the one planned before them keeps off where they stand.
+    Returns {owner: (xz, radius, until)} of the holds made."""
+    holds = {}
+    for o in owners:
+        c = ctx.sc.characters[o]
+        until, radius = start_hold(ctx, c)
+        if until:
+            holds[o] = (np.asarray(c.position, float), radius, until)
+            ctx.index.hold(o, *holds[o])
+    return holds
+
+
+def _plan_among_held(ctx: PlanContext, results: dict, ci: int, k: int, attempt: int, held: dict) -> CharacterResult:
+    """``plan_one`` (keeping every constraint) while the starts in ``held`` are held, but for
+    the ones where ``ci`` must arrive (a swap of places: as in the first pass, they give way)."""
+    freed = goal_holds(ctx, ci, held) if held else []
+    for j in freed:
+        ctx.index.release_hold(j)
+    try:
+        return plan_one(ctx, results, ci, k, attempt=attempt, give_up=False)
+    finally:
+        for j in freed:
+            ctx.index.hold(j, *held[j])
+
+
+def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set, held: dict | None = None) -> dict:
     """Character ``ci`` repaired against everyone in the index (see :func:`repair`); the
     blockers it may displace are never in ``keep`` (the characters whose arrivals time others,
-    and those being planned again with ``ci``). Returns {owner: its result before} of the
-    characters whose plans it replaced."""
+    and those being planned again with ``ci``). ``held``: the held starts of characters taken
+    out to be planned after it (:func:`hold_starts`). Blockers taken out have their starts held
+    the same way while ``ci`` is planned without them. Returns {owner: its result before} of
+    the characters whose plans it replaced."""
     sc, index = ctx.sc, ctx.index
+    held = dict(held or {})
     old = results[ci]
     index.remove_owner(ci)
-    new = plan_one(ctx, results, ci, k, attempt=1, give_up=False)
+    new = _plan_among_held(ctx, results, ci, k, 1, held)
     if not new.warnings:
         results[ci] = _spent(new, old)
         ctx.insert(ci, new.track)
@@ -522,12 +556,14 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set) -
             ctx.log(f"{sc.characters[ci].name}: planning it without {names}, then them around it")
         for b in blockers:
             index.remove_owner(b)
-        first = plan_one(ctx, results, ci, k, attempt=2, give_up=False)
+        held_b = hold_starts(ctx, blockers)
+        first = _plan_among_held(ctx, results, ci, k, 2, {**held, **held_b})
         spare.append(first)
         again = {}
         if not first.warnings:
             ctx.insert(ci, first.track)
             for b in blockers:
+                index.remove_owner(b)       # its start hold gives way to its plan
                 rb = plan_one(ctx, results, b, k, attempt=3, give_up=False)
                 if rb.warnings:
                     spare.append(rb)
@@ -545,6 +581,7 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set) -
             for b in again:
                 index.remove_owner(b)
         for b in blockers:              # as it was
+            index.remove_owner(b)
             ctx.insert(b, results[b].track)
     cand = min(tried, key=_badness)
     keep_plan = cand if _badness(cand) < _badness(old) else old
