@@ -8,7 +8,7 @@ duration = 20.0             # seconds to bake
 seed = 0
 [synthesis]                 # optional, paper defaults
 epsilon = [0.02, 2.0, 0.0667]
-passes = 3                  # planning passes: characters left without a clean plan go first next time
+passes = 4                  # planning passes: later ones repair the characters left without a clean plan
 start_still = false         # true: "stand" starts on a still node first, false: on a walking hub first;
                             # unset: still first for characters whose first window leaves time to wait
 approach_point = 0.0        # m: way points to a seat pass this far in front of it first (0: off)

@@ -76,7 +76,7 @@ class CrowdPolicy:
     scheduler (:func:`runtime.crowd.scheduler.plan_scenario`) and, where it applies, the
     runtime World."""
 
-    passes: int = 3                # planning passes; passes after the first repair failed characters
+    passes: int = 4                # planning passes; passes after the first repair failed characters
     bend_waypoints: bool = True    # way points bend round the characters who stand still (starts held
     #                                for characters not planned yet; runtime.crowd.planner.bend)
     space_time_seeds: bool = False  # seeds follow a route in space and time around the characters
