@@ -109,12 +109,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
     order = crowd_order(sc, policy.order)
-    holds = {}
-    for ci in order:
-        hold, radius = start_hold(ctx, sc.characters[ci])
-        if hold:
-            holds[ci] = (np.asarray(sc.characters[ci].position, float), radius, hold)
-            ctx.index.hold(ci, *holds[ci])
+    holds = hold_starts(ctx, order)
     held = HeldStarts(holds)
     if policy.reserve_goals:
         for ci in order:
@@ -498,10 +493,10 @@ def _spent(r, *others):
 
 
 def hold_starts(ctx: PlanContext, owners) -> dict:
-    """Hold the starts of ``owners`` -- characters taken out of the index to be planned again
-    after another -- as the first pass held them until they were planned
-    (:func:`start_hold`), so that the one planned before them keeps off where they stand.
-    Returns {owner: (xz, radius, until)} of the holds made."""
+    """Hold the starts of ``owners`` (:func:`start_hold`) until they are planned: in the first
+    pass every character's, in a repair those taken out of the index to be planned again after
+    another, so that the one planned before them keeps off where they stand. Returns {owner:
+    (xz, radius, until)} of the holds made."""
     holds = {}
     for o in owners:
         c = ctx.sc.characters[o]
@@ -533,7 +528,7 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set, h
     the same way while ``ci`` is planned without them. Returns {owner: its result before} of
     the characters whose plans it replaced."""
     sc, index = ctx.sc, ctx.index
-    held = dict(held or {})
+    held = held or {}
     old = results[ci]
     index.remove_owner(ci)
     new = _plan_among_held(ctx, results, ci, k, 1, held)
