@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from runtime.crowd.checker import check_crowd, overlapping_pairs
-from runtime.crowd.planner.route import SLICE, STEP, timed_route, timed_route_steps
+from runtime.crowd.planner.route import ROOMY, SLICE, STEP, timed_route, timed_route_steps
 from runtime.crowd.reservations import Reservations
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import plan_scenario
@@ -45,6 +45,31 @@ def test_timed_route_keeps_clear_of_planned_characters():
     empty = Reservations(1.6, 1500)
     pts2, frames2, delay2 = timed_route(straight, 0, empty.at_frame, None, 0.52, 1200)
     assert delay2 == 0 and len(pts2) == 2 and frames2[-1] <= 10 / 1.0 * 30
+
+
+def test_timed_route_keeps_room_from_obstacles_where_it_can():
+    """A post 0.6 m beside the straight line (clear for the walking disc, but tight): the route
+    bends round it with ROOMY more clearance, arriving no later; with no roomy way within
+    ROOMY_WAIT steps (a gap only as wide as the disc) it goes through the tight cells."""
+    empty = Reservations(1.6, 1500)
+    straight = np.array([[0.0, 0.0], [0.0, 10.0]])
+    post = np.array([0.9, 5.0])
+
+    def one_post(p):
+        return np.hypot(*(np.asarray(p) - post).T) - 0.3
+    pts, frames, _ = timed_route(straight, 0, empty.at_frame, one_post, 0.52, 1200)
+    _, walk = _sample(pts, frames)
+    assert one_post(walk).min() >= 0.52 + ROOMY - 0.05
+    assert frames[-1] == timed_route(straight, 0, empty.at_frame, None, 0.52, 1200)[1][-1]
+
+    def gap(p):                 # a wall across the way, with a gap 0.6 m either side of the line
+        p = np.asarray(p, dtype=np.float64)
+        x = np.abs(p[:, 0])
+        along = np.maximum(0.9 - x, 0.0) + np.maximum(x - 6.0, 0.0)
+        return np.hypot(along, p[:, 1] - 5.0) - 0.3
+    pts, frames, _ = timed_route(straight, 0, empty.at_frame, gap, 0.52, 1200)
+    _, walk = _sample(pts, frames)
+    assert 0.52 - 0.05 <= gap(walk).min() < 0.52 + ROOMY
 
 
 def test_timed_route_gives_up_when_the_goal_stays_taken():

@@ -9,14 +9,18 @@ Berg and Overmars 2005). A disc of the walking radius moves on a lattice of cell
 static route, one cell per time step (to any of the eight neighbours) or stays where it is; a
 cell is blocked in a step when a planned character's cylinder, grown by the walker's, covers it
 at the step's middle or end. The search is a wavefront over time (breadth first, all cells of a
-step at once, vectorized), so the route found arrives as early as the lattice allows. The
-planner uses the route's shape as the seeds' way points and its first wait as a departure delay.
+step at once, vectorized), so the route found arrives as early as the lattice allows; two
+wavefronts run side by side, one through every free cell and one through the cells with room to
+spare from the walls, and the roomy route is taken unless it arrives much later (way points
+beside a door post or a corner make seeds whose spliced motions cut into it). The planner uses
+the route's shape as the seeds' way points and its first wait as a departure delay.
 
 Limits (beside the code): ``CELL`` = 0.45 m lattice and ``STEP`` = 12 frames (0.4 s at 30 Hz:
 1.1 m/s straight, 1.6 m/s diagonal); the lattice covers ``CORRIDOR`` = 4 m around the static
 route; planned characters are seen at two instants per step with ``SLACK`` = 0.3 m of extra
-radius for their motion in between; the search yields every ``SLICE`` time steps, so a long one
-is spread over ticks.
+radius for their motion in between; the route keeps ``ROOMY`` = 0.3 m more from static
+obstacles where that costs at most ``ROOMY_WAIT`` = 3 time steps (1.2 s); the search yields
+every ``SLICE`` time steps, so a long one is spread over ticks.
 """
 from __future__ import annotations
 
@@ -24,18 +28,21 @@ import numpy as np
 
 from .types import Step
 
-__all__ = ["timed_route", "timed_route_steps", "CELL", "STEP", "CORRIDOR", "SLACK", "SLICE"]
+__all__ = ["timed_route", "timed_route_steps", "CELL", "STEP", "CORRIDOR", "SLACK", "SLICE", "ROOMY", "ROOMY_WAIT"]
 
 CELL = 0.45         # m between lattice points
 STEP = 12           # frames per time step
 CORRIDOR = 4.0      # m of lattice around the static route
 SLACK = 0.3         # m added to the planned characters' radii for their motion within a step
 SLICE = 8           # time steps of the wavefront per yield of timed_route_steps (a few ms each)
+ROOMY = 0.3         # m more clearance from static obstacles the route keeps where it can ...
+ROOMY_WAIT = 3      # ... arriving up to this many time steps later than through tighter cells
 
 
 def _corridor(route_xz: np.ndarray, static, radius: float):
     """Lattice points within ``CORRIDOR`` of the polyline ``route_xz`` and clear of static
-    obstacles by ``radius``: (origin (2,), free (nx, nz) bool)."""
+    obstacles by ``radius``: (origin (2,), free (nx, nz) bool, clearance (nx, nz) in m: inf
+    without obstacles)."""
     lo = route_xz.min(axis=0) - CORRIDOR
     hi = route_xz.max(axis=0) + CORRIDOR
     nx, nz = (np.ceil((hi - lo) / CELL).astype(int) + 1)
@@ -48,9 +55,9 @@ def _corridor(route_xz: np.ndarray, static, radius: float):
     foot = a[None] + t[..., None] * ab[None]
     d = np.hypot(pts[:, None, 0] - foot[..., 0], pts[:, None, 1] - foot[..., 1]).min(axis=1)
     free = d <= CORRIDOR
-    if static is not None:
-        free &= static(pts) >= radius
-    return lo, free.reshape(nx, nz)
+    clear = np.asarray(static(pts), dtype=np.float64) if static is not None else np.full(len(pts), np.inf)
+    free &= clear >= radius
+    return lo, free.reshape(nx, nz), clear.reshape(nx, nz)
 
 
 def _dilate(m: np.ndarray) -> np.ndarray:
@@ -119,7 +126,7 @@ def timed_route_steps(route_xz, start_frame: int, occupied_at, static, radius: f
         in frames), or None when the goal cannot be reached by ``last_frame``.
     """
     route_xz = np.asarray(route_xz, dtype=np.float64)
-    lo, free = _corridor(route_xz, static, radius)
+    lo, free, clear = _corridor(route_xz, static, radius)
     shape = free.shape
 
     def cell(p):
@@ -128,27 +135,41 @@ def timed_route_steps(route_xz, start_frame: int, occupied_at, static, radius: f
 
     s_ij, g_ij = cell(route_xz[0]), cell(route_xz[-1])
     free[s_ij] = free[g_ij] = True
+    roomy = free & (clear >= radius + ROOMY)
+    roomy[s_ij] = roomy[g_ij] = True
     reach_now = np.zeros(shape, dtype=bool)
     reach_now[s_ij] = True
-    layers = [reach_now]
+    # two wavefronts side by side: through any free cell, and through roomy cells only (way
+    # points there keep the seeds off door posts and corners); the roomy route is taken
+    # unless it arrives more than ROOMY_WAIT steps after the other
+    layers, layers_r = [reach_now], [reach_now]
     k_max = (last_frame - start_frame) // STEP
-    found = None
+    found = found_any = None
     for k in range(1, k_max + 1):
         if k % SLICE == 0:
             yield Step.WAYPOINTS
         f0 = start_frame + (k - 1) * STEP
-        cand = _dilate(layers[-1]) & free
+        busy = np.zeros(shape, dtype=bool)
         for f in (f0 + STEP // 2, f0 + STEP):
             xz, r = occupied_at(f)
             if len(xz):
-                cand &= ~_blocked(lo, shape, np.asarray(xz, dtype=np.float64),
-                                  np.asarray(r, dtype=np.float64) + radius + SLACK)
+                busy |= _blocked(lo, shape, np.asarray(xz, dtype=np.float64),
+                                 np.asarray(r, dtype=np.float64) + radius + SLACK)
+        cand = _dilate(layers[-1]) & free & ~busy
         if not cand.any():
-            return None
-        layers.append(cand)
-        if cand[g_ij] and (hold is None or hold(f0 + STEP)):
-            found = k
             break
+        layers.append(cand)
+        layers_r.append(_dilate(layers_r[-1]) & roomy & ~busy)
+        if layers_r[-1][g_ij] and (hold is None or hold(f0 + STEP)):
+            found, layers = k, layers_r
+            break
+        if found_any is None and cand[g_ij] and (hold is None or hold(f0 + STEP)):
+            found_any = k
+        if found_any is not None and k - found_any >= ROOMY_WAIT:
+            found = found_any
+            break
+    if found is None:
+        found = found_any
     if found is None:
         return None
     # back from the goal: each step to a cell reachable one step earlier, nearest the start
