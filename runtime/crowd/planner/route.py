@@ -160,10 +160,11 @@ def timed_route_steps(route_xz, start_frame: int, occupied_at, static, radius: f
             break
         layers.append(cand)
         layers_r.append(_dilate(layers_r[-1]) & roomy & ~busy)
-        if layers_r[-1][g_ij] and (hold is None or hold(f0 + STEP)):
-            found, layers = k, layers_r
-            break
-        if found_any is None and cand[g_ij] and (hold is None or hold(f0 + STEP)):
+        roomy_there = layers_r[-1][g_ij]
+        if cand[g_ij] and (found_any is None or roomy_there) and (hold is None or hold(f0 + STEP)):
+            if roomy_there:
+                found, layers = k, layers_r
+                break
             found_any = k
         if found_any is not None and k - found_any >= ROOMY_WAIT:
             found = found_any
