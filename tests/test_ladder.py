@@ -50,7 +50,7 @@ def test_timed_route_keeps_clear_of_planned_characters():
 def test_timed_route_keeps_room_from_obstacles_where_it_can():
     """A post 0.6 m beside the straight line (clear for the walking disc, but tight): the route
     bends round it with ROOMY more clearance, arriving no later; with no roomy way within
-    ROOMY_WAIT steps (a gap only as wide as the disc) it goes through the tight cells."""
+    ROOMY_WAIT steps (a wall with a gap 0.6 m either side of the line) it goes through the tight cells."""
     empty = Reservations(1.6, 1500)
     straight = np.array([[0.0, 0.0], [0.0, 10.0]])
     post = np.array([0.9, 5.0])
