@@ -35,7 +35,7 @@ def test_timed_route_keeps_clear_of_planned_characters():
     f = np.arange(0, 250)
     walk = np.stack([np.zeros(len(f)), np.minimum(f / 30 * 1.2, 10.0)], 1)
     assert idx.overlaps(f, walk, np.full(len(f), 0.4)).any()
-    pts, frames, delay = timed_route(straight, 0, idx.at_frame, None, 0.52, 1200)
+    pts, frames, delay, _ = timed_route(straight, 0, idx.at_frame, None, 0.52, 1200)
     assert np.allclose(pts[0], [0, 0]) and np.allclose(pts[-1], [0, 10])
     ff, xz = _sample(pts, frames)
     assert not idx.overlaps(ff, xz, np.full(len(ff), 0.4)).any()
@@ -43,7 +43,7 @@ def test_timed_route_keeps_clear_of_planned_characters():
     assert speeds.max() < 1.7                     # a walk, not a dash
     # nobody in the way: the route is the straight line, leaving at once
     empty = Reservations(1.6, 1500)
-    pts2, frames2, delay2 = timed_route(straight, 0, empty.at_frame, None, 0.52, 1200)
+    pts2, frames2, delay2, _ = timed_route(straight, 0, empty.at_frame, None, 0.52, 1200)
     assert delay2 == 0 and len(pts2) == 2 and frames2[-1] <= 10 / 1.0 * 30
 
 
@@ -57,7 +57,7 @@ def test_timed_route_keeps_room_from_obstacles_where_it_can():
 
     def one_post(p):
         return np.hypot(*(np.asarray(p) - post).T) - 0.3
-    pts, frames, _ = timed_route(straight, 0, empty.at_frame, one_post, 0.52, 1200)
+    pts, frames, _, _ = timed_route(straight, 0, empty.at_frame, one_post, 0.52, 1200)
     _, walk = _sample(pts, frames)
     assert one_post(walk).min() >= 0.52 + ROOMY - 0.05
     assert frames[-1] == timed_route(straight, 0, empty.at_frame, None, 0.52, 1200)[1][-1]
@@ -67,7 +67,7 @@ def test_timed_route_keeps_room_from_obstacles_where_it_can():
         x = np.abs(p[:, 0])
         along = np.maximum(0.9 - x, 0.0) + np.maximum(x - 6.0, 0.0)
         return np.hypot(along, p[:, 1] - 5.0) - 0.3
-    pts, frames, _ = timed_route(straight, 0, empty.at_frame, gap, 0.52, 1200)
+    pts, frames, _, _ = timed_route(straight, 0, empty.at_frame, gap, 0.52, 1200)
     _, walk = _sample(pts, frames)
     assert 0.52 - 0.05 <= gap(walk).min() < 0.52 + ROOMY
 
@@ -181,3 +181,39 @@ def test_held_starts_give_way_to_a_swap_of_places(default_graph, monkeypatch):
     ctx.sc, ctx.lib, ctx.params = sc, type("L", (), {"max_radius": 0.5})(), type("P", (), {"margin": 0.02})()
     far = {1: (np.array([6.0, 0.0]), 0.4, 100), 2: (np.array([3.0, 3.0]), 0.4, 100)}
     assert goal_holds(ctx, 0, far) == [1]
+
+
+def test_a_seed_keeps_to_the_timing_of_its_route(default_graph):
+    """A route that waits 3 s where it starts, then walks 6 m in 6 s: the seed keeping to it
+    stands until the route moves on and reaches the end no sooner than the route; without the
+    timing it sets off at once."""
+    from runtime.crowd.planner import MotionLibrary, SegmentPlanner, run_to_completion
+    from runtime.motion.graph import STATES
+    from runtime.motion.planar import compose1
+    g = default_graph
+    lib = MotionLibrary(g)
+    walking = STATES.index("walking")
+    loops = np.flatnonzero((g.edge_src == g.edge_dst) & (np.hypot(g.edge_disp[:, 0], g.edge_disp[:, 1]) < 0.1))
+    node = int(np.bincount(g.edge_src[loops]).argmax())          # a node with idle clips
+    planner = SegmentPlanner(lib)
+    wps = np.array([[0.0, 0.0], [0.0, 6.0]])
+
+    def walk(schedule):
+        """(frame the seed is first 0.5 m from the start, frame it is first 5 m along)."""
+        s = planner.seed(node, np.zeros(3), 0, wps, None, walking, None, False, schedule=schedule)
+        edges, _ = run_to_completion(s.steps())
+        cfg, f, leave, far = np.zeros(3), 0, None, None
+        for e in edges:
+            cfg = compose1(cfg, lib.disp[e])
+            f += int(lib.nframes[e]) - 1
+            if leave is None and np.hypot(cfg[0], cfg[1]) > 0.5:
+                leave = f
+            if far is None and cfg[1] > 5.0:
+                far = f
+        return leave, far
+
+    route = (np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 6.0]]), np.array([0, 90, 270]))
+    leave, far = walk(route)
+    leave0, far0 = walk(None)
+    assert leave0 < 45 and leave >= 75
+    assert far is not None and far >= 220 > far0

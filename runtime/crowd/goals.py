@@ -220,7 +220,8 @@ class SegmentLadder:
         self.rung_left = None if budget is None else int(budget)   # search iterations left for the rungs
         self.out_of_budget = False
 
-    def run(self, cfg: Config, goal: Goal, n_max=None, planner=None, waypoints=None, rung: bool = True):
+    def run(self, cfg: Config, goal: Goal, n_max=None, planner=None, waypoints=None, rung: bool = True,
+            schedule=None):
         """Generator: one segment search (time-sliced like the planner's own steps). A rung's
         search (``rung``) is cut to the iterations left of ``policy.rung_budget``; with none
         left it raises :class:`RungBudgetSpent`."""
@@ -231,7 +232,7 @@ class SegmentLadder:
                 raise RungBudgetSpent(self.name)
             n = min(n, self.rung_left)
         res = yield from (planner or self.planner).run(cfg, goal, self.rng, name=self.name, n_max=n,
-                                                        waypoints=waypoints)
+                                                        waypoints=waypoints, schedule=schedule)
         self.iterations += res.iterations
         if rung and self.rung_left is not None:
             self.rung_left -= max(int(res.iterations), 1)
@@ -373,7 +374,7 @@ class SegmentLadder:
                                              hold)
         if route is None:
             return None
-        pts, _, delay = route
+        pts, _, delay, trail = route
         idle, start = None, cfg
         if delay >= ctx.fps and ctx.still is not None and ctx.still[cfg.node]:
             idle = idle_for(ctx.lib, ctx.graph, cfg, delay / ctx.fps, ctx.fps)
@@ -382,7 +383,8 @@ class SegmentLadder:
             else:
                 start = Config(cfg.node, *(float(v) for v in idle.root[-1]), int(cfg.frame + len(idle) - 1))
                 pts = np.concatenate([np.array([[start.x, start.z]]), pts[1:]])
-        res = yield from self.run(start, goal, waypoints=pts, n_max=n_max, rung=rung)
+        res = yield from self.run(start, goal, waypoints=pts, n_max=n_max, rung=rung,
+                                  schedule=trail if self.ctx.policy.route_schedule else None)
         if res.warning:
             return None
         return idle, res, 0.0 if idle is None else (len(idle) - 1) / ctx.fps

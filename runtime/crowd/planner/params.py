@@ -59,6 +59,8 @@ class SearchParams:
     backward_idle: bool = False    # backward seeds may idle at the goal to spend surplus time
     carrot: float = 1.5            # seeds aim this far (m) along the way-point path ahead of themselves
     carrot_final: float = 3.0      # ... until the path's end is this close (m): then at the end itself
+    route_lead: float = 1.0        # s: a seed keeping to a space-time route aims where the route is
+    #                                this much later (runtime.crowd.planner.seeds)
     approach_point: float = 0.0    # m in front of a seat that the way points pass first, and last
     #                                when leaving one (0: off)
     fps: float = 30.0
@@ -81,6 +83,8 @@ class CrowdPolicy:
     #                                for characters not planned yet; runtime.crowd.planner.bend)
     space_time_seeds: bool = False  # seeds follow a route in space and time around the characters
     #                                planned before when a walk along the static route runs into one
+    route_schedule: bool = True    # a seed along a space-time route keeps to its timing, not only
+    #                                its turns (runtime.crowd.planner.seeds.GreedySeed)
     order: str = "file"            # planning order: "file", "longest", "shortest", "earliest"
     #                                (runtime.crowd.scheduler.crowd_order)
     retry_n_max: int = 300         # search iterations of a further try at a segment that failed

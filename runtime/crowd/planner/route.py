@@ -13,7 +13,8 @@ step at once, vectorized), so the route found arrives as early as the lattice al
 wavefronts run side by side, one through every free cell and one through the cells with room to
 spare from the walls, and the roomy route is taken unless it arrives much later (way points
 beside a door post or a corner make seeds whose spliced motions cut into it). The planner uses
-the route's shape as the seeds' way points and its first wait as a departure delay.
+the route's turns as the seeds' way points and its first wait as a departure delay, and the
+forward seed keeps to the whole route's timing (:class:`~.seeds.GreedySeed`'s ``schedule``).
 
 Limits (beside the code): ``CELL`` = 0.45 m lattice and ``STEP`` = 12 frames (0.4 s at 30 Hz:
 1.1 m/s straight, 1.6 m/s diagonal); the lattice covers ``CORRIDOR`` = 4 m around the static
@@ -123,7 +124,8 @@ def timed_route_steps(route_xz, start_frame: int, occupied_at, static, radius: f
 
     Returns:
         (way points (m, 2) of the route's turns, the frames it is at each, the departure delay
-        in frames), or None when the goal cannot be reached by ``last_frame``.
+        in frames, the whole route: ((k, 2) where it is at each time step, waits included, and
+        (k,) the frames)), or None when the goal cannot be reached by ``last_frame``.
     """
     route_xz = np.asarray(route_xz, dtype=np.float64)
     lo, free, clear = _corridor(route_xz, static, radius)
@@ -201,4 +203,4 @@ def timed_route_steps(route_xz, start_frame: int, occupied_at, static, radius: f
             continue
         keep.append(i)
     keep.append(len(cells) - 1)
-    return pts[keep], frames[keep], delay
+    return pts[keep], frames[keep], delay, (pts, frames)

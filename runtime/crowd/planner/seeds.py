@@ -14,6 +14,10 @@ On top of the paper's planner:
 * When improving edges exist but all collide, the seed waits on an idle clip for a planned
   character to pass (``max_waits``) or, short of the target, takes the clear edge that loses
   least (``max_sidesteps``), or turns towards the target (``max_turns``).
+* Along a route in space and time (a ``schedule``, :mod:`.route`) the carrot is where the route
+  is ``route_lead`` seconds after the seed's clock, and where the route waits for a planned
+  character to pass the seed idles, so its motion keeps the route's timing, not only its
+  turns (a time budget's pacing then applies only once the route has arrived).
 * With a ``time_budget`` (seconds to the goal) the seed prefers the edge whose progress rate
   matches the rate the budget asks for, and idles on the node's self-loop clips while time is
   in surplus, so the seeds already come close to the window the search must meet. The budget
@@ -70,6 +74,9 @@ class GreedySeed:
         reverse: plan on the time-reversed graph (a backward seed).
         time_budget: seconds to the goal, or None (untimed).
         reserve: seconds left for the change of state at the far end.
+        schedule: a route in space and time to keep to, or None: ((k, 2) positions, (k,) clock
+            frames) (:func:`.route.timed_route_steps`); a forward seed then aims at where the
+            route is ``params.route_lead`` s after its own clock, and idles where the route waits.
 
     Attributes (after :meth:`steps` finished):
         edges: the edges in walking order of the seed (reversed for a backward seed).
@@ -79,7 +86,8 @@ class GreedySeed:
 
     def __init__(self, lib: MotionLibrary, params: SearchParams, collider: Collider, env, compiled: bool,
                  start_node: int, start_cfg: np.ndarray, frame0: int, waypoints: np.ndarray, final_heading,
-                 travel: int, target_nodes, reverse: bool, time_budget: float | None = None, reserve: float = 0.0):
+                 travel: int, target_nodes, reverse: bool, time_budget: float | None = None, reserve: float = 0.0,
+                 schedule=None):
         self.lib, self.g, self.p = lib, lib.g, params
         self.collider, self.env, self.compiled = collider, env, compiled
         g = self.g
@@ -112,6 +120,9 @@ class GreedySeed:
         self.s_proj = 0.0
         self.ahead = params.carrot
         self.tp = waypoints[-1]
+        self.schedule = None if (schedule is None or reverse) else \
+            (np.asarray(schedule[0], dtype=np.float64), np.asarray(schedule[1], dtype=np.float64))
+        self.lead = params.route_lead * params.fps
         self.goal_xz = np.asarray(waypoints[-1], dtype=np.float64)
         self.home_xz = np.asarray(start_cfg[:2], dtype=np.float64)
         # nodes where a seed can stand and wait: a self-loop clip of the travel state that
@@ -168,6 +179,8 @@ class GreedySeed:
         of the last one, so a path that doubles back is not short-cut). Returns whether the
         target is the last way point."""
         waypoints, cfg = self.waypoints, self.cfg
+        if self.schedule is not None:
+            return self._scheduled_carrot()
         if len(waypoints) <= 2:         # a straight path: aim at its end, as the paper does
             self.tp = waypoints[-1]
             return True
@@ -193,6 +206,35 @@ class GreedySeed:
                 k = int(np.argmin(seen)) - 1 if not seen.all() else len(ss) - 1
                 sc = float(ss[k])
         self.tp = self.path_point(np.array([sc]))[0]
+        return False
+
+    def _scheduled_carrot(self) -> bool:
+        """The target on a timed route: where the route is ``lead`` frames after the seed's
+        clock (the route's end once it has arrived). Returns whether it is the end."""
+        sxz, sf = self.schedule
+        t = self.frame + self.lead
+        if t >= sf[-1] or len(sf) < 2:
+            self.tp = self.waypoints[-1]
+            return True
+        i = int(np.searchsorted(sf, t, side="right")) - 1
+        u = (t - sf[i]) / max(sf[i + 1] - sf[i], 1e-9)
+        self.tp = sxz[i] + u * (sxz[i + 1] - sxz[i])
+        return False
+
+    def _keep_to_schedule(self, out) -> bool:
+        """On a timed route, nothing gains on a target close by: the route waits here (for a
+        planned character to pass). Idle on the node's most stationary self-loop clip, or stop
+        on a clip to a node where one can stand, if that is clear. Returns whether it idled."""
+        if self.schedule is None or self.idled >= MAX_IDLE_EDGES:
+            return False
+        if np.hypot(self.cfg[0] - self.tp[0], self.cfg[1] - self.tp[1]) > self.p.reach_radius:
+            return False
+        loops = self.self_loops(out)
+        w = np.array([self.most_still(loops)]) if len(loops) else self.stop_clip(out)
+        if len(w) and self.clear_here(w, True)[0]:
+            self.advance(int(w[0]))
+            self.idled += 1
+            return True
         return False
 
     # -- collision tests -------------------------------------------------------------------------
@@ -257,7 +299,7 @@ class GreedySeed:
             if len(out) == 0:
                 break
             e, span, end_xz, ends, cur = self._lookahead(out, comb, dur2, disp_out, dur_out, final)
-            if self.time_budget is not None:
+            if self.time_budget is not None and (final or self.schedule is None):
                 order = self._paced_order(out, e, span, end_xz, final)
                 if order is None:          # idled a clip on the spot: time in surplus
                     continue
@@ -272,6 +314,9 @@ class GreedySeed:
                 if pick is None and self._wait_for_others(out, out[order[:12]]):
                     yield Step.SEED_EDGE
                     continue
+            if pick is None and not final and self._keep_to_schedule(out):
+                yield Step.SEED_EDGE
+                continue
             if pick is None:
                 alt = self._sidestep_or_turn(out, order, e, ends, comb)
                 if alt is not None:
@@ -281,6 +326,7 @@ class GreedySeed:
                 if not final:
                     # nothing gains on this target: aim further along the path
                     self.ahead += p.carrot
+                    self.lead += p.fps
                     self.sidesteps = 0
                     yield Step.SEED_EDGE
                     continue
@@ -290,6 +336,7 @@ class GreedySeed:
                 break
             self.advance(pick)
             self.ahead = p.carrot
+            self.lead = p.route_lead * p.fps
             yield Step.SEED_EDGE
             if tgt is not None and self.node in tgt:
                 best = (list(self.edges), self.node, self.cfg.copy())

@@ -126,10 +126,10 @@ class SegmentPlanner:
         return pts
 
     def seed(self, start_node: int, start_cfg, frame0: int, waypoints, final_heading, travel: int, target_nodes,
-             reverse: bool, time_budget: float | None = None, reserve: float = 0.0) -> GreedySeed:
+             reverse: bool, time_budget: float | None = None, reserve: float = 0.0, schedule=None) -> GreedySeed:
         """A :class:`~.seeds.GreedySeed` with this planner's obstacles."""
         return GreedySeed(self.lib, self.p, self.collider, self.env, self.compiled, start_node, start_cfg, frame0,
-                          waypoints, final_heading, travel, target_nodes, reverse, time_budget, reserve)
+                          waypoints, final_heading, travel, target_nodes, reverse, time_budget, reserve, schedule)
 
     def greedy(self, *args, **kwargs) -> tuple[list, int]:
         """A seed (:meth:`seed`'s arguments) run to completion: (edges, last node)."""
@@ -139,10 +139,12 @@ class SegmentPlanner:
         return out
 
     def run(self, start: Config, goal: Goal, rng: np.random.Generator, name: str = "", n_max: int | None = None,
-            waypoints=None):
+            waypoints=None, schedule=None):
         """Generator: yields the kind of each next step (:class:`~.types.Step`); returns a
         :class:`~.types.SegmentResult`. ``n_max``: the iteration limit (default ``params.n_max``);
-        ``waypoints``: (n, 2) way points to seed along instead of the roadmap's.
+        ``waypoints``: (n, 2) way points to seed along instead of the roadmap's; ``schedule``:
+        the timed route they come from (:class:`~.seeds.GreedySeed`), kept to by the first
+        forward seed.
 
         Seeds are made from the roadmap's way points; the randomized search then runs on them.
         When the search keeps finding splices below eps that collide with characters already
@@ -189,8 +191,9 @@ class SegmentPlanner:
                  and g.node_state[start.node] == travel)
         while result is None and iterations < n_max and queue:
             wps = queue.pop(0)
+            timed = schedule if wps is base else None
             F0, f_end = yield from self.seed(start.node, start.xzh, start.frame, wps, goal.heading, travel, tgt,
-                                             False, budget, reserve_f).steps()
+                                             False, budget, reserve_f, timed).steps()
             if not F0:
                 F0, f_end = self._nearest_out_edge(start, goal, travel)
             yield Step.SEED_EDGE
