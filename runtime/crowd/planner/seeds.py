@@ -229,8 +229,7 @@ class GreedySeed:
             return False
         if np.hypot(self.cfg[0] - self.tp[0], self.cfg[1] - self.tp[1]) > self.p.reach_radius:
             return False
-        loops = self.self_loops(out)
-        w = np.array([self.most_still(loops)]) if len(loops) else self.stop_clip(out)
+        w = self.wait_clip(out, stop=True)
         if len(w) and self.clear_here(w, True)[0]:
             self.advance(int(w[0]))
             self.idled += 1
@@ -269,6 +268,14 @@ class GreedySeed:
         stops = out[self.idle_node[self.dst[out]] & (np.hypot(disp[out, 0], disp[out, 1]) < 1.0)]
         w = stops[np.argsort(np.hypot(disp[stops, 0], disp[stops, 1]), kind="stable")][:6]
         return w[self.clear_here(w, self.timed)][:1] if len(w) else w
+
+    def wait_clip(self, out, stop: bool):
+        """The clip to wait on (at most one, as an array): the node's most stationary self-loop;
+        without one and with ``stop``, :meth:`stop_clip`."""
+        loops = self.self_loops(out)
+        if len(loops):
+            return np.array([self.most_still(loops)])
+        return self.stop_clip(out) if stop else loops
 
     def first_ok(self, cand):
         """The first of ``cand`` that is clear and leaves room to walk on -- the first that
@@ -435,13 +442,7 @@ class GreedySeed:
         if not (self.waits < p.max_waits and self.collider.collide is not None and self.timed
                 and self.clear_here(cand, False).any()):
             return False
-        loops = self.self_loops(out)
-        if len(loops):
-            w = np.array([self.most_still(loops)])
-        elif p.stop_to_wait and self.time_budget is not None:
-            w = self.stop_clip(out)
-        else:
-            w = loops
+        w = self.wait_clip(out, stop=p.stop_to_wait and self.time_budget is not None)
         if len(w) and self.clear_here(w, self.timed)[0]:
             self.waits += 1
             self.advance(int(w[0]))
