@@ -184,9 +184,9 @@ def test_held_starts_give_way_to_a_swap_of_places(default_graph, monkeypatch):
 
 
 def test_a_seed_keeps_to_the_timing_of_its_route(default_graph):
-    """A route that waits 3 s where it starts, then walks 6 m in 6 s: the seed keeping to it
-    stands until the route moves on and reaches the end no sooner than the route; without the
-    timing it sets off at once."""
+    """A route that waits 3 s where it starts, then walks 6 m in 6 s (5 m along at frame 240):
+    the seed keeping to it stands until the route moves on and is 5 m along no more than its
+    1 s lead ahead of the route; without the timing it sets off at once and is there sooner."""
     from runtime.crowd.planner import MotionLibrary, SegmentPlanner, run_to_completion
     from runtime.motion.graph import STATES
     from runtime.motion.planar import compose1
