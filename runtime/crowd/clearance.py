@@ -19,7 +19,7 @@ try:  # pragma: no cover - depends on the environment
 except Exception:
     _nb = None
 
-__all__ = ["AVAILABLE", "ENABLED", "Clearance", "sample_grid", "sdf_bilinear"]
+__all__ = ["AVAILABLE", "ENABLED", "Clearance", "sample_grid", "sdf_bilinear", "with_discs"]
 
 AVAILABLE = _nb is not None
 ENABLED = AVAILABLE
@@ -94,3 +94,29 @@ class Clearance:
         if g.margin is None or g.env.num_obstacles == 0:
             return None
         return (float(g.origin[0]), float(g.origin[1]), float(g.resolution), g.values, float(g.margin), self.offset)
+
+
+def with_discs(base: Clearance, xz, radius, pad: float) -> Clearance:
+    """``base`` with discs added as obstacles (centres ``xz`` (M, 2), ``radius`` (M,)): the
+    union's distance, min(base, |p - c| - r), written into a copy of the grid within ``pad``
+    of each disc's edge. Beyond ``pad`` the copy may overestimate the distance to a disc,
+    so a caller must not read it there for a decision that a disc closer than ``pad`` would
+    change (the static filter's parts reach less than ``pad`` from where they are read).
+    Discs outside the grid are left out."""
+    g = base.grid
+    vals = g.values.copy()
+    h = g.resolution
+    nx, nz = vals.shape
+    for (cx, cz), r in zip(np.asarray(xz, dtype=np.float64), np.asarray(radius, dtype=np.float64)):
+        reach = r + pad
+        i0 = max(int(np.floor((cx - reach - g.origin[0]) / h)), 0)
+        i1 = min(int(np.ceil((cx + reach - g.origin[0]) / h)) + 1, nx)
+        j0 = max(int(np.floor((cz - reach - g.origin[1]) / h)), 0)
+        j1 = min(int(np.ceil((cz + reach - g.origin[1]) / h)) + 1, nz)
+        if i0 >= i1 or j0 >= j1:
+            continue
+        px = g.origin[0] + h * np.arange(i0, i1)
+        pz = g.origin[1] + h * np.arange(j0, j1)
+        d = np.hypot(px[:, None] - cx, pz[None, :] - cz) - r
+        np.minimum(vals[i0:i1, j0:j1], d, out=vals[i0:i1, j0:j1])
+    return Clearance(type(g)(g.origin, h, vals, g.env, g.margin), base.offset)

@@ -476,6 +476,8 @@ def plan_goals(ctx, results: dict, ci: int, node: int, rng, retry: bool = False,
     planner.deadline = n_total - 1        # a motion that ends after the scenario never arrives
     if ctx.policy.bend_waypoints and hasattr(index, "standing"):
         planner.standing = lambda f: index.standing(f, ignore_owner=ci)
+    if ctx.policy.still_static and hasattr(index, "still"):
+        planner.still = lambda f: index.still(f, ignore_owner=ci)
     start = Config(node, float(c.position[0]), float(c.position[1]), float(c.heading), 0)
     cfg = start
     parts, arrivals, goals, warnings, ladder = [], [], [], [], []

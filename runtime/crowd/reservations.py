@@ -121,6 +121,25 @@ class Reservations(SpaceTimeIndex):
             h &= self._holds[:, 3] != ignore_owner
         return self._holds[h, :2], self._holds[h, 2]
 
+    def still(self, frame: int, ignore_owner: int | None = None, tol: float = 0.02):
+        """(xz (M, 2), radius (M,)): every disc that stays put from ``frame`` to the scenario's
+        end -- the :meth:`standing` holds and the stored characters who do not move (by more
+        than ``tol`` m) from ``frame`` on, each with its largest radius over those frames."""
+        xz, r = self.standing(frame, ignore_owner)
+        if len(self._xzr) and 0 <= frame < self.n_frames:
+            tail = self._xzr[:, frame:]
+            ok = np.isfinite(tail[:, :, 2]).all(axis=1)
+            if ignore_owner is not None and ignore_owner < len(ok):
+                ok[ignore_owner] = False
+            rows = np.flatnonzero(ok)
+            if len(rows):
+                t = tail[rows].astype(np.float64)
+                end = t[:, -1, :2]
+                put = (np.hypot(t[:, :, 0] - end[:, None, 0], t[:, :, 1] - end[:, None, 1]) <= tol).all(axis=1)
+                xz = np.concatenate([xz, end[put]])
+                r = np.concatenate([r, t[put, :, 2].max(axis=1)])
+        return xz, r
+
     def release_hold(self, owner: int, kind: str | None = "start") -> None:
         """Drop ``owner``'s hold of ``kind`` (None: every kind), if any."""
         for kd in (("start", "goal") if kind is None else (kind,)):

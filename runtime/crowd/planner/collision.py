@@ -37,6 +37,9 @@ class Collider:
         hold: ``hold(res) -> (frames, xz, radius)`` or None: where the character stays after the
             segment (its idling after a last goal), tested with the segment in the final test.
         deadline: the last frame a motion may end on (an offline scenario's last frame), or None.
+        still_static: the static clearance with the discs of the characters who stay put for
+            the whole segment (:meth:`.segment.SegmentPlanner.run` sets it), read by the
+            search's static filter only; or None.
     """
 
     def __init__(self, lib: MotionLibrary, params: SearchParams, static=None, collide=None, collide_first=None,
@@ -56,6 +59,7 @@ class Collider:
         self.collide_runs = collide_runs
         self.hold = None
         self.deadline = None
+        self.still_static = None
 
     def clear_edges(self, edges: np.ndarray, cfg: np.ndarray, frames0: np.ndarray, moving: bool,
                     compiled: bool) -> tuple[np.ndarray, np.ndarray]:

@@ -81,6 +81,8 @@ class CrowdPolicy:
     passes: int = 4                # planning passes; passes after the first repair failed characters
     bend_waypoints: bool = True    # way points bend round the characters who stand still (starts held
     #                                for characters not planned yet; runtime.crowd.planner.bend)
+    still_static: bool = True      # characters who stay put for the whole of a segment are obstacles of
+    #                                the search's static filter (runtime.crowd.planner.segment)
     space_time_seeds: bool = False  # seeds follow a route in space and time around the characters
     #                                planned before when a walk along the static route runs into one
     route_schedule: bool = True    # a seed along a space-time route keeps to its timing, not only

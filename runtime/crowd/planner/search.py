@@ -211,7 +211,8 @@ class RandomizedSearch:
                 # pairs near acceptance whose parts hit a static obstacle leave the population
                 near = np.flatnonzero(cn <= p.static_filter * eps_p)
                 if len(near):
-                    okn = pairs_static_clear(self.lib, self.collider.static, p.margin, Fn[near], Bn[near], inn[near],
+                    static = self.collider.still_static or self.collider.static
+                    okn = pairs_static_clear(self.lib, static, p.margin, Fn[near], Bn[near], inn[near],
                                              jn[near], self.start.xzh, self.goal_cfg, slack=p.static_filter_slack,
                                              memo=self.static_memo)
                     cn[near[~okn]] = np.inf

@@ -28,6 +28,7 @@ import numpy as np
 from ...motion.graph import STATES
 from ...motion.planar import compose, compose1
 from . import kernels
+from ..clearance import with_discs
 from .bend import bend_around
 from .collision import Collider
 from .library import MotionLibrary
@@ -72,6 +73,9 @@ class SegmentPlanner:
         standing: ``standing(frame) -> (xz (M, 2), radius (M,))``: characters who stand still
             from ``frame`` on (not planned yet; in the World, idle or queued), which the way
             points bend round; or None.
+        still: ``still(frame) -> (xz (M, 2), radius (M,))``: everyone who stays put from
+            ``frame`` to the end (the standing ones and planned characters who have stopped
+            for good), obstacles of the search's static filter for a segment starting then; or None.
     """
 
     def __init__(self, lib: MotionLibrary, static=None, collide=None, roadmap=None, env=None,
@@ -86,6 +90,8 @@ class SegmentPlanner:
         self.cache = None
         self.waited = 0
         self.standing = None
+        self.still = None
+        self._still_memo = (None, None)
 
     @property
     def hold(self):
@@ -124,6 +130,28 @@ class SegmentPlanner:
             if len(xz):
                 pts = bend_around(pts, xz, r, BEND_RADIUS + self.p.margin, self.env)
         return pts
+
+    def _still_static(self, start: Config, goal: Goal):
+        """The static clearance with the discs of :attr:`still` at the segment's start frame
+        (those touching its start or goal left out: they are the final test's to judge), or
+        None. The last one made is kept: the discs change only when someone is planned."""
+        base = self.collider.static
+        if self.still is None or base is None or getattr(base, "compiled_args", None) is None:
+            return None
+        xz, r = self.still(start.frame)
+        if len(xz):
+            near = self.lib.max_radius + self.p.margin
+            keep = ((np.hypot(xz[:, 0] - start.x, xz[:, 1] - start.z) > r + near)
+                    & (np.hypot(xz[:, 0] - goal.position[0], xz[:, 1] - goal.position[1]) > r + near))
+            xz, r = xz[keep], r[keep]
+        if not len(xz):
+            return None
+        key = np.concatenate([xz.ravel(), r]).round(3).tobytes()
+        if self._still_memo[0] != key:
+            # the filter reads a part's samples up to its clip's reach from where the clip starts
+            pad = float(self.lib.samp_reach.max()) + 4 * base.offset + 0.5
+            self._still_memo = (key, with_discs(base, xz, r, pad))
+        return self._still_memo[1]
 
     def seed(self, start_node: int, start_cfg, frame0: int, waypoints, final_heading, travel: int, target_nodes,
              reverse: bool, time_budget: float | None = None, reserve: float = 0.0, schedule=None) -> GreedySeed:
@@ -170,6 +198,7 @@ class SegmentPlanner:
         n_max = p.n_max if n_max is None else int(n_max)
         travel = self.travel_state(start.node)
         base = self.waypoints(start, goal) if waypoints is None else np.asarray(waypoints, dtype=np.float64)
+        self.collider.still_static = self._still_static(start, goal)
         yield Step.SEED_EDGE
         tgt = goal.nodes
         budget = None
