@@ -211,7 +211,7 @@ class RandomizedSearch:
                 # pairs near acceptance whose parts hit a static obstacle leave the population
                 near = np.flatnonzero(cn <= p.static_filter * eps_p)
                 if len(near):
-                    static = self.collider.still_static or self.collider.static
+                    static = self.collider.static if self.collider.still_static is None else self.collider.still_static
                     okn = pairs_static_clear(self.lib, static, p.margin, Fn[near], Bn[near], inn[near],
                                              jn[near], self.start.xzh, self.goal_cfg, slack=p.static_filter_slack,
                                              memo=self.static_memo)
