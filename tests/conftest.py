@@ -44,3 +44,23 @@ def default_graph():
     from authoring.default_library import ensure_library
     from runtime.motion.graph import MotionGraph
     return MotionGraph.load(ensure_library("default", log=lambda *a: None, progress=False))
+
+
+@pytest.fixture(scope="session")
+def random_pairs(default_graph):
+    """``make(rng, P, L)``: P random motion pairs of the default library for the search's static
+    filter -- forward rows walking from the first clip's node, backward rows from random nodes,
+    right-aligned in L columns -- and their cuts: (F, B, i, j)."""
+    g = default_graph
+
+    def make(rng, P: int, L: int):
+        F = -np.ones((P, L), np.int64)
+        B = -np.ones((P, L), np.int64)
+        nf, nb = rng.integers(1, L - 2, P), rng.integers(1, L - 2, P)
+        for p in range(P):
+            F[p, :nf[p]] = g.random_walk(int(g.edge_src[0]), nf[p], rng)
+            B[p, L - nb[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nb[p], rng)
+        i = np.array([rng.integers(0, n + 1) for n in nf])
+        j = np.array([rng.integers(L - n, L + 1) for n in nb])
+        return F, B, i, j
+    return make

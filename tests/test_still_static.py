@@ -41,7 +41,7 @@ def test_the_grid_with_discs_reads_the_distance_to_walls_and_discs():
     assert base.grid.values.min() > -1.1               # the walls' own grid is not written to
 
 
-def test_the_compiled_filter_reads_the_discs_as_the_sample_by_sample_test_does(default_graph):
+def test_the_compiled_filter_reads_the_discs_as_the_sample_by_sample_test_does(default_graph, random_pairs):
     """The compiled static filter passes a whole clip when its start is farther from every
     obstacle than its samples reach; with discs written only within a pad of each, it still
     decides every pair as the sample-by-sample test does, and the discs take pairs out."""
@@ -53,15 +53,8 @@ def test_the_compiled_filter_reads_the_discs_as_the_sample_by_sample_test_does(d
     pad = float(lib.samp_reach.max()) + 4 * base.offset + 0.5
     still = with_discs(base, np.array([[0.0, 0.5], [-0.5, 4.0], [4.0, 5.0]]), np.array([0.3, 0.3, 0.4]), pad)
     rng = np.random.default_rng(11)
-    P, L = 300, 14
-    F = -np.ones((P, L), np.int64)
-    B = -np.ones((P, L), np.int64)
-    nf, nb = rng.integers(1, 12, P), rng.integers(1, 12, P)
-    for p in range(P):
-        F[p, :nf[p]] = g.random_walk(int(g.edge_src[0]), nf[p], rng)
-        B[p, L - nb[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nb[p], rng)
-    i = np.array([rng.integers(0, n + 1) for n in nf])
-    j = np.array([rng.integers(L - n, L + 1) for n in nb])
+    P = 300
+    F, B, i, j = random_pairs(rng, P, 14)
     start, goal = np.array([-1.0, -1.0, 0.4]), np.array([0.0, 5.5, 2.0])
     fast = pairs_static_clear(lib, still, 0.02, F, B, i, j, start, goal, slack=0.1)
     plain = pairs_static_clear(lib, lambda q: still(q), 0.02, F, B, i, j, start, goal, slack=0.1)

@@ -1047,7 +1047,7 @@ def _with(init, **overrides):
     return patched
 
 
-def test_compiled_static_filter_and_sdf_agree_with_numpy(default_graph):
+def test_compiled_static_filter_and_sdf_agree_with_numpy(default_graph, random_pairs):
     """The compiled static filter (reading the clearance grid directly, stopping at a pair's
     first bad sample) and the compiled SDF lookup give the numpy paths' answers."""
     from runtime.crowd import clearance
@@ -1070,15 +1070,8 @@ def test_compiled_static_filter_and_sdf_agree_with_numpy(default_graph):
     finally:
         clearance.ENABLED = True
     np.testing.assert_allclose(sdf.sample(pts), slow, atol=1e-12)
-    P, L = 300, 14
-    F = -np.ones((P, L), np.int64)
-    B = -np.ones((P, L), np.int64)
-    nf, nb = rng.integers(1, 12, P), rng.integers(1, 12, P)
-    for p in range(P):
-        F[p, :nf[p]] = g.random_walk(int(g.edge_src[0]), nf[p], rng)
-        B[p, L - nb[p]:] = g.random_walk(int(rng.integers(g.num_nodes)), nb[p], rng)
-    i = np.array([rng.integers(0, n + 1) for n in nf])
-    j = np.array([rng.integers(L - n, L + 1) for n in nb])
+    P = 300
+    F, B, i, j = random_pairs(rng, P, 14)
     start, goal = np.array([-1.0, -1.0, 0.4]), np.array([0.5, 6.0, 2.0])
     fast = pairs_static_clear(lib, static, 0.02, F, B, i, j, start, goal, slack=0.1)
     plain = pairs_static_clear(lib, lambda xz: static(xz), 0.02, F, B, i, j, start, goal, slack=0.1)
