@@ -169,6 +169,14 @@ def size_summary(rows) -> list:
     return lines
 
 
+def typed_value(default, value: str):
+    """``value`` read as the type of a dataclass field's ``default`` (bools from 1/true/yes);
+    ValueError when it does not read as that type."""
+    if isinstance(default, bool):
+        return value.lower() in ("1", "true", "yes")
+    return type(default)(value) if isinstance(default, (int, float)) else value
+
+
 def parse_sizes(text):
     out = []
     for part in text.split(","):
@@ -229,8 +237,7 @@ def main(argv=None) -> int:
             policy[key] = None
             continue
         try:
-            policy[key] = (value.lower() in ("1", "true", "yes") if isinstance(default, bool)
-                           else type(default)(value) if isinstance(default, (int, float)) else value)
+            policy[key] = typed_value(default, value)
         except ValueError:
             ap.error(f"--policy: {key} must be a {type(default).__name__}, got {value!r}")
     try:

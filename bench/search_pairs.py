@@ -52,17 +52,17 @@ def parse_variant(items: list[str]) -> dict:
         if not sep:
             raise SystemExit(f"search_pairs: expected FIELD=VALUE, got {item!r}")
         if key == "still_static":
-            out[key] = value.lower() in ("1", "true", "yes")
+            out[key] = crowd_sweep.typed_value(True, value)
             continue
         if not hasattr(defaults, key):
             raise SystemExit(f"search_pairs: {key!r} is not a SearchParams field nor still_static")
         d = getattr(defaults, key)
-        if isinstance(d, bool):
-            out[key] = value.lower() in ("1", "true", "yes")
-        elif isinstance(d, (int, float)):
-            out[key] = type(d)(value)
-        else:
+        if not isinstance(d, (bool, int, float)):
             raise SystemExit(f"search_pairs: {key!r} cannot be set from the command line")
+        try:
+            out[key] = crowd_sweep.typed_value(d, value)
+        except ValueError:
+            raise SystemExit(f"search_pairs: {key} must be a {type(d).__name__}, got {value!r}") from None
     return out
 
 
