@@ -467,6 +467,38 @@ def test_the_relaxed_rung_keeps_a_reserve_when_the_rung_budget_is_spent(default_
     assert spent == {7: 40 + 2 * 7 + 15, 0: 40 + 15}
 
 
+def test_a_relaxed_search_that_lands_within_eps_gives_nothing_up(default_graph):
+    """The relaxed rung reports what it gives up: a motion its wider search found that is
+    within the scenario's eps after all is a clean plan (no ladder step), one over eps is
+    "relaxed" with its factor."""
+    from types import SimpleNamespace
+    from runtime.crowd.goals import SegmentLadder
+    planner = SegmentPlanner(MotionLibrary(default_graph))
+    eps = planner.p.eps
+    ladder = SegmentLadder(SimpleNamespace(policy=CrowdPolicy()), planner, "c0", np.random.default_rng(0), 10, 10)
+    first = SimpleNamespace(warning="no motion within eps")
+    for scale, expect in ((0.5, None), (1.5, 1.5)):
+        res = SimpleNamespace(warning="", rates=tuple(scale * e for e in eps))
+
+        def run(*args, _res=res, **kw):
+            return _res
+            yield
+        ladder.run = run
+        cfg = Config(0, 0.0, 0.0, 0.0, 0)
+        goal = Goal(np.array([0.0, 4.0]), 0.0, None, None)
+        gen = ladder._relaxed(cfg, goal, 0, first)
+        try:
+            while True:
+                next(gen)
+        except StopIteration as stop:
+            idle, got, step = stop.value
+        assert idle is None and got is res
+        if expect is None:
+            assert step is None
+        else:
+            assert step.kind == "relaxed" and step.eps_factor == pytest.approx(expect)
+
+
 def test_a_motion_that_ends_after_the_scenario_is_never_accepted(default_graph):
     """The final test rejects a clear motion that ends after the planner's ``deadline`` (one
     past its frames, like a held end that is hit). A goal 9 m away with no window in a 4 s

@@ -347,6 +347,9 @@ class SegmentLadder:
             res2 = yield from self.run(cfg, goal, planner=relaxed, n_max=n_max, rung=rung)
             if not res2.warning:
                 factor = max(r / e for r, e in zip(res2.rates, planner.p.eps))
+                if factor <= 1.0 + 1e-9:
+                    # the wider search found a motion within eps after all: nothing is given up
+                    return None, res2, None
                 return None, res2, LadderStep(gi, "relaxed", eps_factor=factor, reason=first.warning)
         return None
 
