@@ -108,7 +108,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
                                    n_total),
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
-    order = crowd_order(sc, policy.order)
+    order = crowd_order(sc, policy.order, env, roadmap)
     holds = hold_starts(ctx, order)
     held = HeldStarts(holds)
     if policy.reserve_goals:
@@ -348,21 +348,85 @@ def time_to_wait(c, policy: CrowdPolicy) -> bool:
     return c.goals[0].time[0] - d / WALK_SPEED > policy.wait_slack
 
 
-ORDERS = ("file", "longest", "earliest", "shortest")
+ORDERS = ("file", "longest", "earliest", "shortest", "endpoints")
+ENDPOINT_REACH = 1.0    # m: a start or last goal this close to another's route is in its way
 
 
-def crowd_order(sc: Scenario, how: str = "file") -> list[int]:
+def _routes(sc: Scenario, env, roadmap) -> list:
+    """Per character, its route through all its goals: the roadmap's way points from the start
+    to each goal in turn (straight lines without a roadmap), as one (n, 2) polyline."""
+    out = []
+    for c in sc.characters:
+        pts = [np.asarray(c.position, float)[None]]
+        prev = np.asarray(c.position, float)
+        for g in c.goals:
+            if g.position is None:
+                continue
+            b = np.asarray(g.position, float)
+            path = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
+            pts.append(np.asarray(path, float)[1:])
+            prev = b
+        out.append(np.concatenate(pts))
+    return out
+
+
+def _points_to_routes(points: np.ndarray, routes: list) -> np.ndarray:
+    """(P, R): the distance from each point to each polyline of ``routes`` (vectorized over
+    all their segments)."""
+    segs = [(np.repeat(line, 2, axis=0)[1:-1].reshape(-1, 2, 2) if len(line) > 1 else line[None, [0, 0]])
+            for line in routes]
+    first = np.cumsum([0] + [len(sg) for sg in segs[:-1]])
+    seg = np.concatenate(segs)
+    a, ab = seg[:, 0], seg[:, 1] - seg[:, 0]
+    rel = points[:, None, :] - a[None]
+    t = np.clip(np.einsum("psk,sk->ps", rel, ab) / np.maximum(np.einsum("sk,sk->s", ab, ab), 1e-12), 0.0, 1.0)
+    d = np.hypot(*(rel - t[..., None] * ab[None]).transpose(2, 0, 1))
+    return np.minimum.reduceat(d, first, axis=1)
+
+
+def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = ENDPOINT_REACH) -> set:
+    """Pairs (i, j): character i should be planned before j because an endpoint of one lies
+    on the other's route (within ``reach`` m). A start waits, held, until its character is
+    planned: one on j's route should leave first (i = its owner). A last goal is stood on to
+    the end: one on i's route should be reached after i has passed (j = its owner). Prioritized
+    planning always succeeds when no one's path needs to cross another's start or goal
+    (well-formed infrastructures, Cap, Novak, Kleiner and Selecky 2015); where paths must, this
+    order has the one in the way leave first, or arrive last."""
+    n = len(sc.characters)
+    if n < 2:
+        return set()
+    routes = _routes(sc, env, roadmap)
+    starts = np.array([np.asarray(c.position, float) for c in sc.characters])
+    lasts = [next((np.asarray(g.position, float) for g in reversed(c.goals) if g.position is not None), None)
+             for c in sc.characters]
+    has_last = np.array([x is not None for x in lasts])
+    goals = np.array([x if x is not None else np.zeros(2) for x in lasts])
+    near_s = _points_to_routes(starts, routes) < reach        # [k, o]: k's start on o's route
+    near_g = (_points_to_routes(goals, routes) < reach) & has_last[:, None]
+    np.fill_diagonal(near_s, False)
+    np.fill_diagonal(near_g, False)
+    pairs = {(int(k), int(o)) for k, o in zip(*np.nonzero(near_s))}
+    pairs |= {(int(o), int(k)) for k, o in zip(*np.nonzero(near_g))}
+    return pairs
+
+
+def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None) -> list[int]:
     """The order characters are planned in (prioritized planning: each one avoids those before
     it). Always after the characters whose arrivals time its goals (``after``); among the
     others, by ``how``: "file" (the scenario's order), "longest" (the longest walk through all
-    its goals first), "shortest", or "earliest" (the earliest first arrival: its window's
-    start, or a walk at ``WALK_SPEED`` for an untimed goal)."""
+    its goals first), "shortest", "earliest" (the earliest first arrival: its window's start,
+    or a walk at ``WALK_SPEED`` for an untimed goal), or "endpoints" (file order, but a
+    character whose start is on another's route before it, and one whose last goal is on
+    another's route after it: :func:`endpoint_precedence`, routes on ``roadmap``; where these
+    preferences form a cycle, the character with the fewest unmet ones goes first)."""
     import heapq
     if how == "file":
         return planning_order(sc)
     if how not in ORDERS:
         raise ScenarioError(f"{sc.path}: unknown planning order {how!r} (one of {', '.join(ORDERS)})")
     planning_order(sc)        # checks the 'after' references and cycles
+    if how == "endpoints":
+        return _soft_order(sc, endpoint_precedence(sc, env, roadmap))
     n = len(sc.characters)
 
     def walk(c):
@@ -402,6 +466,30 @@ def crowd_order(sc: Scenario, how: str = "file") -> list[int]:
             left[u] -= 1
             if left[u] == 0:
                 heapq.heappush(heap, (key(u), u))
+    return order
+
+
+def _soft_order(sc: Scenario, soft: set) -> list[int]:
+    """A topological order of the ``after`` dependencies (hard) that meets as many of the
+    ``soft`` pairs (i before j) as a greedy pass does: at each step, of the characters whose
+    hard dependencies are planned, the one with the fewest soft predecessors not yet planned
+    (ties: file order)."""
+    n = len(sc.characters)
+    idx = {c.name: i for i, c in enumerate(sc.characters)}
+    hard = [set() for _ in range(n)]
+    for i, c in enumerate(sc.characters):
+        for g in c.goals:
+            if g.after is not None and idx[g.after["character"]] != i:
+                hard[i].add(idx[g.after["character"]])
+    pred = [set() for _ in range(n)]
+    for a, b in soft:
+        pred[b].add(a)
+    done, order = set(), []
+    while len(order) < n:
+        ready = [i for i in range(n) if i not in done and hard[i] <= done]
+        i = min(ready, key=lambda k: (len(pred[k] - done), k))
+        order.append(i)
+        done.add(i)
     return order
 
 
