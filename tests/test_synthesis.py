@@ -1071,6 +1071,30 @@ def test_lane_clear_delay_is_the_first_whole_second_a_straight_walk_is_clear():
     assert lane_clear_delay(index, cfg, goal, 30.0, 400, 0.5) is None     # no time left to wait that long
 
 
+def test_lane_clear_delay_walks_the_route_when_given_one():
+    """With way points the proxy walk follows them (through the door the motion takes): a
+    character standing on the route but 3 m off the straight line delays the walk along the
+    route and not the straight one."""
+    from runtime.crowd.goals import lane_clear_delay
+    from runtime.crowd.spacetime import SpaceTimeIndex
+    index = SpaceTimeIndex(cell=1.6)
+    f = np.arange(400)
+    index.insert(0, f, np.broadcast_to([3.0, 5.0], (400, 2)), np.full(400, 0.4))
+    cfg = Config(0, 0.0, 0.0, 0.0, 30)
+    goal = Goal(np.array([0.0, 10.0]))
+    route = np.array([[0.0, 0.0], [3.0, 5.0], [0.0, 10.0]])
+    assert lane_clear_delay(index, cfg, goal, 30.0, 1800, 0.5) == 0.0
+    d = lane_clear_delay(index, cfg, goal, 30.0, 1800, 0.5, route=route)
+    half = np.hypot(3.0, 5.0)
+    n = int(2 * half / 1.3 * 30) + 1
+    s = np.linspace(0.0, 2 * half, n)
+    along = np.where(s[:, None] <= half, s[:, None] / half * [3.0, 5.0],
+                     [3.0, 5.0] + (s[:, None] - half) / half * np.array([-3.0, 5.0]))
+    want = next(k for k in range(60) if not any(30 + 30 * k + i < 400 and np.hypot(*(along[i] - [3.0, 5.0])) < 0.9
+                                                 for i in range(n)))
+    assert d == float(want) and want >= 5
+
+
 def _with(init, **overrides):
     def patched(self, *a, **k):
         init(self, *a, **k)

@@ -50,7 +50,7 @@ class RungBudgetSpent(Exception):
 LATE_SHIFTS = (3.0, 8.0, 15.0)   # s the window is moved later, in turn, for a late arrival
 RELAXED_EPS = (2.0, 4.0)         # eps scales tried, in turn, for a relaxed adjustment
 LANE_BATCH = 8                   # waits tested per query in lane_clear_delay
-LANE_RADIUS = 0.5                # m: the bounding cylinder of a walk in lane_clear_delay's straight proxy
+LANE_RADIUS = 0.5                # m: the bounding cylinder of a walk in lane_clear_delay's proxy
 
 
 @dataclass
@@ -139,15 +139,23 @@ def collides_early(planner, res, frames: float) -> bool:
     return hit is not None and hit < min(frames, len(res.root))
 
 
-def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3, step: float = 1.0):
-    """Whole ``step`` seconds to stand at ``cfg`` before a straight walk at ``speed`` to the
-    goal (a proxy of the motion, a cylinder of ``radius``) misses every planned character in
+def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3, step: float = 1.0, route=None):
+    """Whole ``step`` seconds to stand at ``cfg`` before a walk at ``speed`` to the goal (a
+    proxy of the motion, a cylinder of ``radius``) misses every planned character in
     ``index``; None when no such wait leaves 2 s of the scenario (``n_total`` frames) after the
-    walk. A crowd setting off together clears a lane in front of a character in this time."""
+    walk. The walk follows ``route`` ((n, 2) way points from the start to the goal: through
+    the doors the motion will take), else a straight line. A crowd setting off together
+    clears a lane in front of a character in this time."""
     a = np.array([cfg.x, cfg.z])
     b = np.asarray(goal.position, float)
-    n = int(np.hypot(*(b - a)) / speed * fps) + 1
-    xz = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    pts = np.array([a, b]) if route is None or len(route) < 2 else np.asarray(route, float)
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    n = int(cum[-1] / speed * fps) + 1
+    s_at = np.linspace(0.0, cum[-1], n)
+    j = np.clip(np.searchsorted(cum, s_at, side="right") - 1, 0, len(seg) - 1)
+    u = (s_at - cum[j]) / np.maximum(seg[j], 1e-12)
+    xz = pts[j] + u[:, None] * (pts[j + 1] - pts[j])
     delays = []
     d = 0.0
     while cfg.frame + (d + 2.0) * fps + n < n_total:
@@ -401,7 +409,8 @@ class SegmentLadder:
                 and collides_early(self.planner, first, policy.depart_within * ctx.fps)):
             return None
         delays = policy.depart_delays
-        dc = lane_clear_delay(ctx.index, cfg, goal, ctx.fps, ctx.n_total, LANE_RADIUS + ctx.params.margin) \
+        dc = lane_clear_delay(ctx.index, cfg, goal, ctx.fps, ctx.n_total, LANE_RADIUS + ctx.params.margin,
+                              route=self.planner.waypoints(cfg, goal) if policy.depart_route else None) \
             if policy.depart_clear else None
         if dc:          # (0: the straight walk is clear now, the fixed delays are tried)
             delays = (dc, dc + 3.0)

@@ -101,6 +101,7 @@ class CrowdPolicy:
     depart_clear: bool = True      # ... first trying the whole seconds of waiting after which a
     #                                straight walk to the goal misses every planned character
     #                                (then 3 s more; the fixed delays when that is 0 s or never)
+    depart_route: bool = False     # ... that walk following the segment's way points, not a straight line
     start_still: bool | None = None  # characters start on a node of their pose where they can stand
     #                                still and wait; False: the pose's most connected node (for "stand"
     #                                a walking hub); None: per character, still first when its first
