@@ -74,3 +74,18 @@ def test_endpoint_routes_follow_the_roadmap_round_a_wall():
     way = roadmap.waypoints(env, np.array([0.0, 0.0]), np.array([10.0, 0.0]))
     assert np.abs(way[:, 1]).max() > 3.0           # the route goes round the wall
     assert (1, 0) not in routed
+
+
+def test_only_endpoints_in_a_narrow_passage_count_when_the_environment_is_known():
+    """In the open a walker steps round someone standing on its route; in a door it cannot.
+    The same stopper 0.6 m beside the walker's line is in the way when a wall stands 1 m
+    from the line there, and not when the nearest obstacle is far."""
+    from runtime.crowd.environment import Environment
+    sc = _scenario([_char("walker", (0.0, 0.0), (10.0, 0.0)),
+                    _char("stopper", (7.0, -6.0), (7.0, -0.6))])
+    far_wall = Environment(polygons=[np.array([[0.0, 20.0], [10.0, 20.0], [10.0, 21.0], [0.0, 21.0]])])
+    near_wall = Environment(polygons=[np.array([[6.0, 1.0], [8.0, 1.0], [8.0, 2.0], [6.0, 2.0]])])
+    assert endpoint_precedence(sc) == {(0, 1)}
+    assert endpoint_precedence(sc, far_wall) == set()
+    assert endpoint_precedence(sc, near_wall) == {(0, 1)}
+    assert endpoint_precedence(sc, far_wall, narrow=None) == {(0, 1)}

@@ -349,7 +349,9 @@ def time_to_wait(c, policy: CrowdPolicy) -> bool:
 
 
 ORDERS = ("file", "longest", "earliest", "shortest", "endpoints")
-ENDPOINT_REACH = 1.0    # m: a start or last goal this close to another's route is in its way
+ENDPOINT_REACH = 1.0    # m: a start or last goal this close to another's route is in its way ...
+ENDPOINT_NARROW = 1.5   # m: ... where the route passes closer than this to a static obstacle (a door, a
+#                         corridor: in the open a walker steps round someone standing)
 
 
 def _routes(sc: Scenario, env, roadmap) -> list:
@@ -370,9 +372,9 @@ def _routes(sc: Scenario, env, roadmap) -> list:
     return out
 
 
-def _points_to_routes(points: np.ndarray, routes: list) -> np.ndarray:
-    """(P, R): the distance from each point to each polyline of ``routes`` (vectorized over
-    all their segments)."""
+def _points_to_routes(points: np.ndarray, routes: list):
+    """(P, R) the distance from each point to each polyline of ``routes``, and (P, R, 2) the
+    nearest point of the polyline (vectorized over all their segments)."""
     segs = [(np.repeat(line, 2, axis=0)[1:-1].reshape(-1, 2, 2) if len(line) > 1 else line[None, [0, 0]])
             for line in routes]
     first = np.cumsum([0] + [len(sg) for sg in segs[:-1]])
@@ -380,18 +382,25 @@ def _points_to_routes(points: np.ndarray, routes: list) -> np.ndarray:
     a, ab = seg[:, 0], seg[:, 1] - seg[:, 0]
     rel = points[:, None, :] - a[None]
     t = np.clip(np.einsum("psk,sk->ps", rel, ab) / np.maximum(np.einsum("sk,sk->s", ab, ab), 1e-12), 0.0, 1.0)
-    d = np.hypot(*(rel - t[..., None] * ab[None]).transpose(2, 0, 1))
-    return np.minimum.reduceat(d, first, axis=1)
+    near = a[None] + t[..., None] * ab[None]
+    d = np.hypot(*(points[:, None, :] - near).transpose(2, 0, 1))
+    # the nearest segment of each route: the minimum over its run of columns
+    big = np.where(d == np.minimum.reduceat(d, first, axis=1).repeat(np.diff(np.r_[first, len(seg)]), axis=1),
+                   np.arange(len(seg))[None], len(seg))
+    arg = np.minimum.reduceat(big, first, axis=1)
+    return np.minimum.reduceat(d, first, axis=1), near[np.arange(len(points))[:, None], arg]
 
 
-def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = ENDPOINT_REACH) -> set:
+def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = ENDPOINT_REACH,
+                        narrow: float | None = ENDPOINT_NARROW) -> set:
     """Pairs (i, j): character i should be planned before j because an endpoint of one lies
     on the other's route (within ``reach`` m). A start waits, held, until its character is
     planned: one on j's route should leave first (i = its owner). A last goal is stood on to
     the end: one on i's route should be reached after i has passed (j = its owner). Prioritized
     planning always succeeds when no one's path needs to cross another's start or goal
     (well-formed infrastructures, Cap, Novak, Kleiner and Selecky 2015); where paths must, this
-    order has the one in the way leave first, or arrive last."""
+    order has the one in the way leave first, or arrive last. With ``env``, only where the
+    route passes that endpoint closer than ``narrow`` m to a static obstacle (None: anywhere)."""
     n = len(sc.characters)
     if n < 2:
         return set()
@@ -401,8 +410,14 @@ def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = END
              for c in sc.characters]
     has_last = np.array([x is not None for x in lasts])
     goals = np.array([x if x is not None else np.zeros(2) for x in lasts])
-    near_s = _points_to_routes(starts, routes) < reach        # [k, o]: k's start on o's route
-    near_g = (_points_to_routes(goals, routes) < reach) & has_last[:, None]
+    def on_route(points):
+        d, q = _points_to_routes(points, routes)
+        on = d < reach
+        if env is not None and narrow is not None and on.any():
+            on[on] = env.distance(q[on]) < narrow
+        return on
+    near_s = on_route(starts)                        # [k, o]: k's start on o's route
+    near_g = on_route(goals) & has_last[:, None]
     np.fill_diagonal(near_s, False)
     np.fill_diagonal(near_g, False)
     pairs = {(int(k), int(o)) for k, o in zip(*np.nonzero(near_s))}
