@@ -139,6 +139,20 @@ def collides_early(planner, res, frames: float) -> bool:
     return hit is not None and hit < min(frames, len(res.root))
 
 
+def _length(pts: np.ndarray) -> float:
+    """The length (m) of the polyline ``pts`` (n >= 2, 2)."""
+    return float(np.cumsum(np.hypot(*np.diff(pts, axis=0).T))[-1])
+
+
+def _along(pts: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(len(s), 2): the points ``s`` metres along the polyline ``pts`` (n >= 2, 2)."""
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    j = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
+    u = (s - cum[j]) / np.maximum(seg[j], 1e-12)
+    return pts[j] + u[:, None] * (pts[j + 1] - pts[j])
+
+
 def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3, step: float = 1.0, route=None):
     """Whole ``step`` seconds to stand at ``cfg`` before a walk at ``speed`` to the goal (a
     proxy of the motion, a cylinder of ``radius``) misses every planned character in
@@ -148,14 +162,14 @@ def lane_clear_delay(index, cfg, goal, fps, n_total, radius, speed: float = 1.3,
     clears a lane in front of a character in this time."""
     a = np.array([cfg.x, cfg.z])
     b = np.asarray(goal.position, float)
-    pts = np.array([a, b]) if route is None or len(route) < 2 else np.asarray(route, float)
-    seg = np.hypot(*np.diff(pts, axis=0).T)
-    cum = np.concatenate([[0.0], np.cumsum(seg)])
-    n = int(cum[-1] / speed * fps) + 1
-    s_at = np.linspace(0.0, cum[-1], n)
-    j = np.clip(np.searchsorted(cum, s_at, side="right") - 1, 0, len(seg) - 1)
-    u = (s_at - cum[j]) / np.maximum(seg[j], 1e-12)
-    xz = pts[j] + u[:, None] * (pts[j + 1] - pts[j])
+    if route is None or len(route) < 2:
+        n = int(np.hypot(*(b - a)) / speed * fps) + 1
+        xz = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    else:
+        pts = np.asarray(route, float)
+        length = _length(pts)
+        n = int(length / speed * fps) + 1
+        xz = _along(pts, np.linspace(0.0, length, n))
     delays = []
     d = 0.0
     while cfg.frame + (d + 2.0) * fps + n < n_total:
@@ -179,14 +193,10 @@ WALK_CHECK_SPEED = 1.2    # m/s of the straight proxy walk that decides whether 
 def _route_blocked(index, route_xz, frame0: int, fps: float, radius: float) -> bool:
     """Whether a walk along ``route_xz`` at ``WALK_CHECK_SPEED`` from ``frame0`` (a disc of
     ``radius``, sampled every 3 frames) runs into a planned character."""
-    seg = np.hypot(*np.diff(route_xz, axis=0).T)
-    cum = np.concatenate([[0.0], np.cumsum(seg)])
-    n = int(cum[-1] / WALK_CHECK_SPEED * fps) + 1
+    length = _length(route_xz)
+    n = int(length / WALK_CHECK_SPEED * fps) + 1
     f = np.arange(0, n, 3)
-    s = np.minimum(f / fps * WALK_CHECK_SPEED, cum[-1])
-    j = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
-    u = (s - cum[j]) / np.maximum(seg[j], 1e-12)
-    xz = route_xz[j] + u[:, None] * (route_xz[j + 1] - route_xz[j])
+    xz = _along(route_xz, np.minimum(f / fps * WALK_CHECK_SPEED, length))
     return index.first_overlap(frame0 + f, xz, np.full(len(f), radius)) >= 0
 
 
