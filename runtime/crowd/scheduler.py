@@ -460,12 +460,7 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None) -> list
             return float(g.time[0])
         return walk(c) / WALK_SPEED
 
-    idx = {c.name: i for i, c in enumerate(sc.characters)}
-    deps = [set() for _ in range(n)]
-    for i, c in enumerate(sc.characters):
-        for g in c.goals:
-            if g.after is not None and idx[g.after["character"]] != i:
-                deps[i].add(idx[g.after["character"]])
+    deps = _after_deps(sc)
     users = [[] for _ in range(n)]
     for i, d in enumerate(deps):
         for j in d:
@@ -484,18 +479,24 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None) -> list
     return order
 
 
+def _after_deps(sc: Scenario) -> list[set]:
+    """Per character, the other characters whose arrivals time its goals (``after``)."""
+    idx = {c.name: i for i, c in enumerate(sc.characters)}
+    deps = [set() for _ in sc.characters]
+    for i, c in enumerate(sc.characters):
+        for g in c.goals:
+            if g.after is not None and idx[g.after["character"]] != i:
+                deps[i].add(idx[g.after["character"]])
+    return deps
+
+
 def _soft_order(sc: Scenario, soft: set) -> list[int]:
     """A topological order of the ``after`` dependencies (hard) that meets as many of the
     ``soft`` pairs (i before j) as a greedy pass does: at each step, of the characters whose
     hard dependencies are planned, the one with the fewest soft predecessors not yet planned
     (ties: file order)."""
     n = len(sc.characters)
-    idx = {c.name: i for i, c in enumerate(sc.characters)}
-    hard = [set() for _ in range(n)]
-    for i, c in enumerate(sc.characters):
-        for g in c.goals:
-            if g.after is not None and idx[g.after["character"]] != i:
-                hard[i].add(idx[g.after["character"]])
+    hard = _after_deps(sc)
     pred = [set() for _ in range(n)]
     for a, b in soft:
         pred[b].add(a)
