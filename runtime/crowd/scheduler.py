@@ -384,11 +384,11 @@ def _points_to_routes(points: np.ndarray, routes: list):
     t = np.clip(np.einsum("psk,sk->ps", rel, ab) / np.maximum(np.einsum("sk,sk->s", ab, ab), 1e-12), 0.0, 1.0)
     near = a[None] + t[..., None] * ab[None]
     d = np.hypot(*(points[:, None, :] - near).transpose(2, 0, 1))
-    # the nearest segment of each route: the minimum over its run of columns
-    big = np.where(d == np.minimum.reduceat(d, first, axis=1).repeat(np.diff(np.r_[first, len(seg)]), axis=1),
-                   np.arange(len(seg))[None], len(seg))
-    arg = np.minimum.reduceat(big, first, axis=1)
-    return np.minimum.reduceat(d, first, axis=1), near[np.arange(len(points))[:, None], arg]
+    # per route (a run of columns): the distance, and its first segment at that distance
+    dmin = np.minimum.reduceat(d, first, axis=1)
+    at = d == np.repeat(dmin, np.diff(np.r_[first, len(seg)]), axis=1)
+    arg = np.minimum.reduceat(np.where(at, np.arange(len(seg))[None], len(seg)), first, axis=1)
+    return dmin, near[np.arange(len(points))[:, None], arg]
 
 
 def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = ENDPOINT_REACH,
