@@ -486,12 +486,7 @@ def test_a_relaxed_search_that_lands_within_eps_gives_nothing_up(default_graph):
         ladder.run = run
         cfg = Config(0, 0.0, 0.0, 0.0, 0)
         goal = Goal(np.array([0.0, 4.0]), 0.0, None, None)
-        gen = ladder._relaxed(cfg, goal, 0, first)
-        try:
-            while True:
-                next(gen)
-        except StopIteration as stop:
-            idle, got, step = stop.value
+        idle, got, step = run_to_completion(ladder._relaxed(cfg, goal, 0, first))
         assert idle is None and got is res
         if expect is None:
             assert step is None

@@ -410,6 +410,7 @@ def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = END
              for c in sc.characters]
     has_last = np.array([x is not None for x in lasts])
     goals = np.array([x if x is not None else np.zeros(2) for x in lasts])
+
     def on_route(points):
         d, q = _points_to_routes(points, routes)
         on = d < reach
