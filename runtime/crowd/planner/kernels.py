@@ -296,47 +296,117 @@ if AVAILABLE:
         return True
 
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _part_static_clear(rows, p, cut, forward, cfg0, disp, samp_ptr, samp_frame, frame_xz, frame_heading,
+                           frame_radius, need, ox, oz, res, values, gmargin, offset, reach,
+                           far):  # pragma: no cover - compiled
+        """Row ``p``: its forward part rows[p, :cut] placed at ``cfg0`` (``forward``), or its
+        backward part rows[p, cut:] ending at ``cfg0``, clears the static obstacles."""
+        L = rows.shape[1]
+        x, z, h = cfg0[0], cfg0[1], cfg0[2]
+        if forward:
+            for c in range(cut):
+                e = rows[p, c]
+                if e < 0:
+                    continue
+                if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
+                                          frame_radius, need, ox, oz, res, values, gmargin, offset, reach, far):
+                    return False
+                ch, sh = np.cos(h), np.sin(h)
+                x, z, h = (x + ch * disp[e, 0] + sh * disp[e, 1], z - sh * disp[e, 0] + ch * disp[e, 1],
+                           h + disp[e, 2])
+        else:
+            for c in range(L - 1, max(cut, 0) - 1, -1):
+                e = rows[p, c]
+                if e < 0:
+                    break
+                h = h - disp[e, 2]
+                ch, sh = np.cos(h), np.sin(h)
+                x = x - (ch * disp[e, 0] + sh * disp[e, 1])
+                z = z - (-sh * disp[e, 0] + ch * disp[e, 1])
+                if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
+                                          frame_radius, need, ox, oz, res, values, gmargin, offset, reach, far):
+                    return False
+        return True
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _part_key(rows, p, a, b):  # pragma: no cover - compiled
+        """A 64-bit FNV-1a hash of rows[p, a:b] and its length (never 0: 0 marks an empty slot)."""
+        h = np.int64(-3750763034362895579) ^ np.int64(b - a)
+        for c in range(a, b):
+            h = (h ^ (rows[p, c] + 2)) * np.int64(1099511628211)
+        return h if h != 0 else np.int64(1)
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _memo_slot(keys, k):  # pragma: no cover - compiled
+        """The slot of key ``k`` in the open-addressed table ``keys`` (its own, or the empty
+        one where it would go)."""
+        mask = len(keys) - 1
+        s = (k ^ (k >> 29)) & mask
+        while keys[s] != 0 and keys[s] != k:
+            s = (s + 1) & mask
+        return s
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _parts_static_clear(rows, cut, forward, cfg0, disp, samp_ptr, samp_frame, frame_xz, frame_heading,
                             frame_radius, need, ox, oz, res, values, gmargin, offset, reach, far,
-                            out):  # pragma: no cover
-        """Per row: a forward part rows[p, :cut[p]] placed at ``cfg0`` (``forward``), or a
-        backward part rows[p, cut[p]:] ending at ``cfg0``, clears the static obstacles."""
+                            keys, vals, out):  # pragma: no cover
+        """Per row, :func:`_part_static_clear`, remembered in the hash table (``keys``,
+        ``vals``) by the part's clips: a part found there is not tested again. Returns the
+        number of parts added to the table (the caller keeps it at most half full)."""
         P, L = rows.shape
+        added = 0
         for p in range(P):
-            ok = True
-            x, z, h = cfg0[0], cfg0[1], cfg0[2]
-            if forward:
-                for c in range(cut[p]):
-                    e = rows[p, c]
-                    if e < 0:
-                        continue
-                    if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
-                                              frame_radius, need, ox, oz, res, values, gmargin, offset, reach,
-                                              far):
-                        ok = False
-                        break
-                    ch, sh = np.cos(h), np.sin(h)
-                    x, z, h = (x + ch * disp[e, 0] + sh * disp[e, 1], z - sh * disp[e, 0] + ch * disp[e, 1],
-                               h + disp[e, 2])
-            else:
-                for c in range(L - 1, max(cut[p], 0) - 1, -1):
-                    e = rows[p, c]
-                    if e < 0:
-                        break
-                    h = h - disp[e, 2]
-                    ch, sh = np.cos(h), np.sin(h)
-                    x = x - (ch * disp[e, 0] + sh * disp[e, 1])
-                    z = z - (-sh * disp[e, 0] + ch * disp[e, 1])
-                    if not _edge_static_clear(e, x, z, h, samp_ptr, samp_frame, frame_xz, frame_heading,
-                                              frame_radius, need, ox, oz, res, values, gmargin, offset, reach,
-                                              far):
-                        ok = False
-                        break
+            k = _part_key(rows, p, 0, cut[p]) if forward else _part_key(rows, p, max(cut[p], 0), L)
+            s = _memo_slot(keys, k)
+            if keys[s] == k:
+                out[p] = vals[s]
+                continue
+            ok = _part_static_clear(rows, p, cut[p], forward, cfg0, disp, samp_ptr, samp_frame, frame_xz,
+                                    frame_heading, frame_radius, need, ox, oz, res, values, gmargin, offset,
+                                    reach, far)
             out[p] = ok
+            keys[s] = k
+            vals[s] = ok
+            added += 1
+        return added
+
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _memo_rehash(keys, vals, keys2, vals2):  # pragma: no cover - compiled
+        for s in range(len(keys)):
+            if keys[s] != 0:
+                t = _memo_slot(keys2, keys[s])
+                keys2[t] = keys[s]
+                vals2[t] = vals[s]
+
+
+class PartMemo:
+    """The parts one search has tested against the static obstacles, and the answers: an
+    open-addressed hash table of the parts' clips (64-bit keys; kept at most half full), read
+    and written by the compiled filter without a Python step per part."""
+
+    def __init__(self, capacity: int = 1024):
+        self.keys = np.zeros(capacity, np.int64)
+        self.vals = np.zeros(capacity, np.bool_)
+        self.count = 0
+
+    def __len__(self) -> int:
+        return self.count
+
+    def reserve(self, n: int) -> None:
+        """Room for ``n`` more parts at most half full."""
+        need = 2 * (self.count + n)
+        if need <= len(self.keys):
+            return
+        cap = len(self.keys)
+        while cap < need:
+            cap *= 2
+        keys2, vals2 = np.zeros(cap, np.int64), np.zeros(cap, np.bool_)
+        _memo_rehash(self.keys, self.vals, keys2, vals2)
+        self.keys, self.vals = keys2, vals2
 
 
 def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
-    """:func:`_parts_static_clear` of the parts not in ``memo`` (keyed by the part's clips).
+    """:func:`_parts_static_clear` of the parts not in ``memo`` (a :class:`PartMemo`, or None).
 
     A clip is passed without testing its samples when the sampled distance at its start, d0,
     is at least its reach R (``lib.samp_reach``: the farthest sample plus its cylinder) plus
@@ -345,31 +415,19 @@ def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
     |v| <= R - r_s from the start reads at least d0 - 2 offset - |v| >= r_s + need + offset.
     Outside the grid a lookup reads the grid's margin, so the shortcut is used only when that
     margin clears the largest cylinder plus need; otherwise every sample is tested."""
-    keys = [(rows[p, :cut[p]] if forward else rows[p, cut[p]:]).tobytes() for p in range(len(rows))]
+    if memo is None:
+        memo = PartMemo()
+    memo.reserve(len(rows))
     out = np.empty(len(rows), dtype=np.bool_)
-    todo = []
-    for p, k in enumerate(keys):
-        v = memo.get(k) if memo is not None else None
-        if v is None:
-            todo.append(p)
-        else:
-            out[p] = v
-    if todo:
-        t = np.array(todo, dtype=np.int64)
-        got = np.empty(len(t), dtype=np.bool_)
-        g = lib.g
-        ox, oz, res, values, gmargin, offset = grid_args
-        far = need + 3.0 * offset + 1e-9
-        if gmargin - offset < lib.max_radius + need:
-            far = np.inf        # a sample outside the grid might fail: test every sample
-        _parts_static_clear(np.ascontiguousarray(rows[t], np.int64), np.ascontiguousarray(cut[t], np.int64),
-                            forward, np.asarray(cfg0, np.float64), lib.disp, lib.samp_ptr, lib.samp_frame,
-                            g.frame_xz, g.frame_heading, g.frame_radius, need, ox, oz, res, values, gmargin,
-                            offset, lib.samp_reach, far, got)
-        out[t] = got
-        if memo is not None:
-            for q, p in enumerate(todo):
-                memo[keys[p]] = bool(got[q])
+    g = lib.g
+    ox, oz, res, values, gmargin, offset = grid_args
+    far = need + 3.0 * offset + 1e-9
+    if gmargin - offset < lib.max_radius + need:
+        far = np.inf        # a sample outside the grid might fail: test every sample
+    memo.count += _parts_static_clear(np.ascontiguousarray(rows, np.int64), np.ascontiguousarray(cut, np.int64),
+                                      forward, np.asarray(cfg0, np.float64), lib.disp, lib.samp_ptr,
+                                      lib.samp_frame, g.frame_xz, g.frame_heading, g.frame_radius, need, ox, oz,
+                                      res, values, gmargin, offset, lib.samp_reach, far, memo.keys, memo.vals, out)
     return out
 
 
@@ -387,8 +445,8 @@ def pairs_static_clear(lib, grid_args, margin: float, F, B, i, j, start, goal, s
     need = float(margin) - float(slack)
     fm = bm = None
     if memo is not None:
-        fm = memo.setdefault("f", {})
-        bm = memo.setdefault("b", {})
+        fm = memo.setdefault("f", PartMemo())
+        bm = memo.setdefault("b", PartMemo())
     ok = _parts_clear(lib, grid_args, need, F, i, start, True, fm)
     if ok.any():
         rest = np.flatnonzero(ok)
