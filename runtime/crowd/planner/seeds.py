@@ -35,6 +35,7 @@ from scipy.sparse.csgraph import shortest_path
 
 from ...motion.graph import TRANSITION
 from ...motion.planar import compose, compose1, wrap_angle
+from ..clearance import Clearance
 from . import kernels
 from .collision import Collider
 from .library import MotionLibrary
@@ -201,12 +202,26 @@ class GreedySeed:
             # the target must be in sight: a carrot moved round a corner (a row's end, a door
             # post) would pull the seed into the obstacle's far side
             ss = np.linspace(self.s_proj, sc, 8)
-            seen = self.env.segment_clear(cfg[None, :2], self.path_point(ss), 0.55)
+            seen = self.in_sight(cfg[:2], self.path_point(ss), 0.55)
             if seen[0]:
                 k = int(np.argmin(seen)) - 1 if not seen.all() else len(ss) - 1
                 sc = float(ss[k])
         self.tp = self.path_point(np.array([sc]))[0]
         return False
+
+    def in_sight(self, a, points, radius: float) -> np.ndarray:
+        """(n,) bool: the straight moves from ``a`` to ``points`` keep ``radius`` from every
+        obstacle (:meth:`~runtime.crowd.environment.Environment.segment_clear`). A move no longer
+        than the static clearance at ``a`` less ``radius`` stays inside the free disc round
+        ``a`` and is clear without the exact test (the clearance never overestimates)."""
+        static = self.collider.static
+        if not isinstance(static, Clearance):
+            return self.env.segment_clear(a[None], points, radius)
+        seen = np.hypot(points[:, 0] - a[0], points[:, 1] - a[1]) + radius <= float(static(a[None])[0])
+        if not seen.all():
+            rest = ~seen
+            seen[rest] = self.env.segment_clear(a[None], points[rest], radius)
+        return seen
 
     def _scheduled_carrot(self) -> bool:
         """The target on a timed route: where the route is ``lead`` frames after the seed's
