@@ -102,7 +102,8 @@ class RandomizedSearch:
         if res is None or not within_eps(res, self.p.eps):
             return None
         hit = self.collider.final_collision(res)
-        if hit is not None and self.collider.collide is not None and self.retimes > 0:
+        if (hit is not None and self.collider.collide is not None and self.retimes > 0
+                and self._timing_may_help(res, hit)):
             self.retimes -= 1
             r2 = yield from self._retimed(res, Frow, i, Brow, j)
             if r2 is not None:
@@ -119,6 +120,20 @@ class RandomizedSearch:
             return None
         res.cost = float(cost)
         return res
+
+    def _timing_may_help(self, res: SegmentResult, hit: int) -> bool:
+        """Whether the same motion at another duration might pass where ``res`` failed the
+        final test at output frame ``hit``: not when it ends in the way (past the deadline, or
+        standing at the goal afterwards) nor when the first hit is a static obstacle, which the
+        same path in space meets at any duration."""
+        if hit >= len(res.root):
+            return False
+        static = self.collider.static
+        if static is None:
+            return True
+        g = self.lib.g
+        rad = max(float(g.frame_radius[res.frames_a[hit]]), float(g.frame_radius[res.frames_b[hit]])) + self.p.margin
+        return bool(static(res.root[hit:hit + 1, :2])[0] >= rad)
 
     def _retimed(self, res, Frow, i, Brow, j):
         """Generator: the same splice at the nearest other durations (time resampling within
