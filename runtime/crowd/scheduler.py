@@ -115,7 +115,9 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
         for ci in order:
             hold_goal(ctx, ci)
     results: dict[int, CharacterResult] = {}
-    for ci in order:
+    all_holds = dict(holds)
+
+    def place(ci: int, attempt: int = 0) -> None:
         ctx.index.remove_owner(ci)          # its start hold (if any) gives way to its plan
         holds.pop(ci, None)
         held.release(ci)
@@ -124,10 +126,32 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
         freed = goal_holds(ctx, ci, held)
         for j in freed:
             ctx.index.release_hold(j)
-        results[ci] = plan_one(ctx, results, ci, 0)
+        results[ci] = plan_one(ctx, results, ci, 0, attempt=attempt)
         ctx.insert(ci, results[ci].track)
         for j in freed:
             ctx.index.hold(j, *holds[j])
+
+    def unplace(ci: int) -> None:
+        ctx.index.remove_owner(ci)
+        del results[ci]
+        if ci in all_holds:
+            holds[ci] = all_holds[ci]
+            ctx.index.hold(ci, *holds[ci])
+            held.hold_again(ci)
+
+    def put_back(ci: int, result: CharacterResult) -> None:
+        ctx.index.remove_owner(ci)
+        holds.pop(ci, None)
+        held.release(ci)
+        results[ci] = result
+        ctx.insert(ci, result.track)
+
+    for ci in order:
+        if ci in results:                   # planned early, for someone whose way it stood in
+            continue
+        place(ci)
+        if policy.promote and results[ci].warnings:
+            _promote(ctx, results, ci, all_holds, place, unplace, put_back, progress)
         if progress:
             progress(1)
     k = 1
@@ -175,6 +199,67 @@ class PlanContext:
 
     def insert(self, ci, track):
         self.index.insert(ci, *self.cylinders(track))
+
+
+PROMOTE_BLOCKERS = 2    # characters not planned yet, standing in a failed one's way, planned before it
+PROMOTE_REACH = 0.5     # m between a held start's disc and a failed character's route that count as in its way
+
+
+def _promote(ctx: PlanContext, results: dict, ci: int, holds_of: dict, place, unplace, put_back,
+             progress) -> None:
+    """Character ``ci`` failed in the first pass, and characters not planned yet stood in its
+    way (held starts among its blockers, or within :data:`PROMOTE_REACH` of its route): plan (at
+    most :data:`PROMOTE_BLOCKERS` of) them now, so that they leave their starts in their own
+    plans, then ``ci`` again. The new plans are kept if ``ci`` is better off and the promoted
+    ones are clean, else everything is as before (the promoted characters wait for their turn).
+
+    Args:
+        holds_of: {owner: (xz, radius, until)} of every start held in the first pass.
+        place, unplace, put_back: ``place(ci, attempt)`` plans a character into the index,
+            ``unplace(ci)`` takes it out again (its start held), ``put_back(ci, result)`` puts a
+            plan made before back.
+        progress: as :func:`plan_scenario`'s.
+    """
+    first = results[ci]
+    hits: dict = {}
+    for step in first.ladder:
+        for b, n in step.blocked_by.items():
+            hits[b] = hits.get(b, 0) + n
+    deps = _after_deps(ctx.sc)
+
+    def free(b):            # not planned yet, and its ``after`` goals timed by characters planned (not ``ci``)
+        return (b != ci and b not in results and 0 <= b < len(ctx.sc.characters)
+                and all(d in results and d != ci for d in deps[b]))
+    waiting = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1]) if free(b)][:PROMOTE_BLOCKERS]
+    # a search the static filter stopped names nobody: add the held starts beside its route
+    others = [o for o in holds_of if free(o) and o not in waiting]
+    if len(waiting) < PROMOTE_BLOCKERS and others:
+        xz = np.array([holds_of[o][0] for o in others], dtype=np.float64).reshape(-1, 2)
+        r = np.array([holds_of[o][1] for o in others], dtype=np.float64)
+        d, _ = _points_to_routes(xz, [_route(ctx.sc.characters[ci], ctx.env, ctx.roadmap)])
+        gap = d[:, 0] - r
+        near = np.flatnonzero(gap < PROMOTE_REACH)
+        waiting += [others[k] for k in near[np.argsort(gap[near], kind="stable")]][:PROMOTE_BLOCKERS - len(waiting)]
+    if not waiting:
+        return
+    if ctx.log:
+        names = ", ".join(ctx.sc.characters[b].name for b in waiting)
+        ctx.log(f"{ctx.sc.characters[ci].name}: planning {names} first, who stood in its way")
+    unplace(ci)
+    for b in waiting:
+        place(b)
+    place(ci, attempt=5)
+    if _badness(results[ci]) < _badness(first) and not any(results[b].warnings for b in waiting):
+        results[ci] = _spent(results[ci], first)
+        if progress:
+            progress(len(waiting))
+        return
+    spent = results[ci]
+    unplace(ci)
+    for b in waiting:
+        spent = _spent(spent, results[b])
+        unplace(b)
+    put_back(ci, _spent(first, spent))
 
 
 def plan_one(ctx: PlanContext, results, ci: int, k: int, attempt: int = 0, give_up: bool = True) -> CharacterResult:
@@ -308,6 +393,12 @@ class HeldStarts:
         if k is not None:
             self.live[k] = False
 
+    def hold_again(self, owner: int) -> None:
+        """Undo :meth:`release` (the character was taken out of the index again)."""
+        k = self._row.get(int(owner))
+        if k is not None:
+            self.live[k] = True
+
     def at_goals(self, ctx: PlanContext, ci: int) -> list:
         """The live holders whose disc is within the two bounding cylinders (and the margin) of
         one of character ``ci``'s goal positions."""
@@ -355,21 +446,23 @@ ENDPOINT_NARROW = 1.5   # m: ... where the route passes closer than this to a st
 
 
 def _routes(sc: Scenario, env, roadmap) -> list:
-    """Per character, its route through all its goals: the roadmap's way points from the start
+    """Per character, its route through all its goals (:func:`_route`)."""
+    return [_route(c, env, roadmap) for c in sc.characters]
+
+
+def _route(c, env, roadmap) -> np.ndarray:
+    """Character ``c``'s route through all its goals: the roadmap's way points from the start
     to each goal in turn (straight lines without a roadmap), as one (n, 2) polyline."""
-    out = []
-    for c in sc.characters:
-        pts = [np.asarray(c.position, float)[None]]
-        prev = np.asarray(c.position, float)
-        for g in c.goals:
-            if g.position is None:
-                continue
-            b = np.asarray(g.position, float)
-            path = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
-            pts.append(np.asarray(path, float)[1:])
-            prev = b
-        out.append(np.concatenate(pts))
-    return out
+    pts = [np.asarray(c.position, float)[None]]
+    prev = np.asarray(c.position, float)
+    for g in c.goals:
+        if g.position is None:
+            continue
+        b = np.asarray(g.position, float)
+        path = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
+        pts.append(np.asarray(path, float)[1:])
+        prev = b
+    return np.concatenate(pts)
 
 
 def _points_to_routes(points: np.ndarray, routes: list):

@@ -112,5 +112,8 @@ class CrowdPolicy:
     #                                it need not leave), "all" (any start, the whole scenario)
     reserve_goals: bool = False    # a last goal with a window is held from its opening until its
     #                                character is planned (runtime.crowd.scheduler.hold_goal)
+    promote: bool = False          # a character that fails in the first pass where characters not
+    #                                planned yet stand in its way has them planned first, then tries
+    #                                again (runtime.crowd.scheduler._promote)
     reuse_motions: bool = True     # a motion found for one character is tried first for the next
     #                                with the same task relative to its start (motion_cache)
