@@ -15,15 +15,20 @@ def _char(name, start, goal):
             "goal": [{"position": list(goal)}]}
 
 
+def _door(half_width: float = 0.8):
+    """A long wall at x = 1 with a door of ``2 * half_width`` m round z = 0, and its roadmap."""
+    w = half_width
+    env = Environment(polygons=[np.array([[0.85, w], [1.15, w], [1.15, 30.0], [0.85, 30.0]]),
+                                np.array([[0.85, -30.0], [1.15, -30.0], [1.15, -w], [0.85, -w]])])
+    return env, build_roadmap(env, seed=0)
+
+
 def test_a_start_in_a_doorway_is_planned_before_the_one_it_blocks(default_graph):
     """A long wall at x = 1 with a 1.6 m door; ``leaver`` starts in the door and walks out,
     ``walker`` (first in the file) must pass through it. Planned in the file's order the
     walker meets the leaver's held start and gives its goal up; with promotion the leaver is
     planned first and both arrive, clear of each other and of the wall."""
-    w = 0.8
-    env = Environment(polygons=[np.array([[0.85, w], [1.15, w], [1.15, 30.0], [0.85, 30.0]]),
-                                np.array([[0.85, -30.0], [1.15, -30.0], [1.15, -w], [0.85, -w]])])
-    roadmap = build_roadmap(env, seed=0)
+    env, roadmap = _door()
     sc = parse_scenario({"name": "door", "duration": 40.0, "seed": 0,
                          "character": [_char("walker", (-6.0, 0.0), (8.0, -3.0)),
                                        _char("leaver", (1.0, 0.0), (8.0, 3.0))]})
@@ -40,10 +45,7 @@ def test_a_start_in_a_doorway_is_planned_before_the_one_it_blocks(default_graph)
 def test_a_promotion_that_does_not_help_is_undone(default_graph):
     """The leaver's goal is in the door too: planned first it still closes the way, so the
     walker's first plan is put back and the leaver is planned in its turn, as without promotion."""
-    w = 0.8
-    env = Environment(polygons=[np.array([[0.85, w], [1.15, w], [1.15, 30.0], [0.85, 30.0]]),
-                                np.array([[0.85, -30.0], [1.15, -30.0], [1.15, -w], [0.85, -w]])])
-    roadmap = build_roadmap(env, seed=0)
+    env, roadmap = _door()
     sc = parse_scenario({"name": "door", "duration": 40.0, "seed": 0,
                          "character": [_char("walker", (-6.0, 0.0), (8.0, -3.0)),
                                        _char("stayer", (1.0, 0.0), (1.0, 0.35))]})
