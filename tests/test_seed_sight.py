@@ -6,7 +6,7 @@ import numpy as np
 
 from runtime.crowd.clearance import Clearance
 from runtime.crowd.planner.seeds import GreedySeed
-from tests.test_environment import random_env
+from test_environment import random_env
 
 
 def test_in_sight_answers_as_the_exact_segment_test():
