@@ -108,7 +108,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
                                    n_total),
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
-    order = crowd_order(sc, policy.order, env, roadmap)
+    order = crowd_order(sc, policy.order, env, roadmap, static=static, fps=fps, n_total=n_total, log=log)
     holds = hold_starts(ctx, order)
     held = HeldStarts(holds)
     if policy.reserve_goals:
@@ -439,7 +439,7 @@ def time_to_wait(c, policy: CrowdPolicy) -> bool:
     return c.goals[0].time[0] - d / WALK_SPEED > policy.wait_slack
 
 
-ORDERS = ("file", "longest", "earliest", "shortest", "endpoints")
+ORDERS = ("file", "longest", "earliest", "shortest", "endpoints", "lattice")
 ENDPOINT_REACH = 1.0    # m: a start or last goal this close to another's route is in its way ...
 ENDPOINT_NARROW = 1.5   # m: ... where the route passes closer than this to a static obstacle (a door, a
 #                         corridor: in the open a walker steps round someone standing)
@@ -519,7 +519,8 @@ def endpoint_precedence(sc: Scenario, env=None, roadmap=None, reach: float = END
     return pairs
 
 
-def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None) -> list[int]:
+def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None, static=None, fps: float = 30.0,
+                n_total: int | None = None, log=None) -> list[int]:
     """The order characters are planned in (prioritized planning: each one avoids those before
     it). Always after the characters whose arrivals time its goals (``after``); among the
     others, by ``how``: "file" (the scenario's order), "longest" (the longest walk through all
@@ -527,7 +528,11 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None) -> list
     or a walk at ``WALK_SPEED`` for an untimed goal), or "endpoints" (file order, but a
     character whose start is on another's route before it, and one whose last goal is on
     another's route after it: :func:`endpoint_precedence`, routes on ``roadmap``; where these
-    preferences form a cycle, the character with the fewest unmet ones goes first)."""
+    preferences form a cycle, the character with the fewest unmet ones goes first), or
+    "lattice" (per interaction group, the order whose stand-in plan of discs on a space-time
+    lattice leaves the fewest characters without a route: :mod:`runtime.crowd.priorities`;
+    ``static`` is then the clearance the stand-in keeps from the obstacles, ``fps`` and
+    ``n_total`` the clock, ``log`` hears the choice per group)."""
     import heapq
     if how == "file":
         return planning_order(sc)
@@ -536,6 +541,10 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None) -> list
     planning_order(sc)        # checks the 'after' references and cycles
     if how == "endpoints":
         return _soft_order(sc, endpoint_precedence(sc, env, roadmap))
+    if how == "lattice":
+        from .priorities import lattice_order
+        n_total = n_total if n_total is not None else int(round(sc.duration * fps)) + 1
+        return lattice_order(sc, env, roadmap, static, fps, n_total, log=log)
     n = len(sc.characters)
 
     def walk(c):

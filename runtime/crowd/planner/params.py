@@ -87,8 +87,8 @@ class CrowdPolicy:
     #                                planned before when a walk along the static route runs into one
     route_schedule: bool = True    # a seed along a space-time route keeps to its timing, not only
     #                                its turns (runtime.crowd.planner.seeds.GreedySeed)
-    order: str = "file"            # planning order: "file", "longest", "shortest", "earliest", "endpoints"
-    #                                (runtime.crowd.scheduler.crowd_order)
+    order: str = "file"            # planning order: "file", "longest", "shortest", "earliest", "endpoints",
+    #                                "lattice" (runtime.crowd.scheduler.crowd_order)
     retry_n_max: int = 300         # search iterations of a further try at a segment that failed
     rung_budget: int | None = 900  # search iterations all the ladder's rungs of one segment may
     #                                spend together (runtime.crowd.goals); None: no bound

@@ -1,0 +1,241 @@
+"""The planning order, chosen with a stand-in plan: discs on a space-time lattice.
+
+Characters are planned one after another (Sung, Kovar and Gleicher 2005, section 3.1), each
+avoiding the ones before it: prioritized planning, whose success depends on the order (van den
+Berg and Overmars 2005). Bennewitz, Burgard and Thrun (2002) search the orders themselves,
+judging each by planning the whole team with it. Planning a character's motion costs seconds
+here; the stand-in costs milliseconds: every character is a disc that walks the space-time
+lattice of :func:`~runtime.crowd.planner.route.timed_route` (the rerouted rung's search) from
+goal to goal, against the discs planned before it and the starts of those not planned yet
+(held, as in :func:`~runtime.crowd.scheduler.hold_starts`), and must arrive inside each
+window. The order is chosen per interaction group (characters whose routes come within
+``GROUP_REACH`` of each other with nothing between: a walled district, a cross-flow): of the
+candidate orders of :data:`CANDIDATES`, the one whose stand-in leaves the fewest characters
+without a route, then a few steps of hill climbing that move a character left without one to
+the front of its group. Groups are planned one after another; across groups the order does
+not matter (they never meet).
+
+Limits (beside the code): discs of ``WALK_RADIUS`` walking and ``STAND_RADIUS`` standing (the
+lattice adds ``route.SLACK``); a state change (sitting down, picking a box up) takes
+``CHANGE_S``; at most ``CLIMB_STEPS`` stand-in plans of a group per hill climb; a group of
+more than ``MAX_GROUP`` characters keeps the file order.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .planner.route import STEP, timed_route
+
+__all__ = ["lattice_failures", "interaction_groups", "lattice_order", "CANDIDATES", "WALK_RADIUS",
+           "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S", "MAX_GROUP"]
+
+CANDIDATES = ("file", "endpoints", "earliest", "longest")   # orders tried first, per group
+WALK_RADIUS = 0.45      # m: the stand-in's walking disc
+STAND_RADIUS = 0.35     # m: ... and standing disc (starts held, goals reached)
+GOAL_RELEASE = 1.2      # m: a held start this close to a character's goal gives way to it (a swap)
+GROUP_REACH = 2.0       # m between two routes, in sight of each other, that joins their groups
+GROUP_SAMPLE = 0.5      # m between the route points the groups are found from
+CLIMB_STEPS = 6         # stand-in plans per group spent on hill climbing
+MAX_GROUP = 40          # characters: a larger group keeps the file order (a stand-in plan costs about
+#                         the square of the group's size; a grid of hundreds is one group)
+CHANGE_S = {"seat": 3.0, "box": 3.0}   # s of state change after arriving at such a goal
+
+
+def _legs(sc, env, roadmap) -> list:
+    """Per character, per goal with a position: (goal index, way points (n, 2))."""
+    out = []
+    for c in sc.characters:
+        prev = np.asarray(c.position, float)
+        row = []
+        for gi, g in enumerate(c.goals):
+            if g.position is None:
+                continue
+            b = np.asarray(g.position, float)
+            way = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
+            row.append((gi, np.asarray(way, float)))
+            prev = b
+        out.append(row)
+    return out
+
+
+def lattice_failures(sc, static, legs, order, fps: float, n_total: int) -> list:
+    """The characters of ``order`` (indices into ``sc.characters``) that the stand-in plan
+    leaves without a route to one of their goals in time, in order.
+
+    Args:
+        sc: the scenario. static: signed distance to the obstacles (callable on (n, 2)), or None.
+        legs: per character, [(goal index, way points)] (:func:`_legs`).
+        order: the characters to plan, in turn; the others are not there at all.
+        fps, n_total: the clock (frames per second, frames in the scenario).
+    """
+    order = list(order)
+    T = n_total // STEP + 2
+    k_of = {ci: k for k, ci in enumerate(order)}
+    pos = np.array([np.broadcast_to(np.asarray(sc.characters[ci].position, float), (T, 2)) for ci in order])
+    pos = pos.reshape(len(order), T, 2).copy()
+    rad = np.full(len(order), STAND_RADIUS)
+    arrive = {}
+    failed = []
+    names = {c.name: i for i, c in enumerate(sc.characters)}
+    others = np.ones(len(order), dtype=bool)
+    planned = np.zeros(len(order), dtype=bool)
+    starts = pos[:, 0].copy()
+    for k, ci in enumerate(order):
+        c = sc.characters[ci]
+        mask = others.copy()
+        mask[k] = False
+        # held starts at this character's goals give way (a swap of places)
+        for _, way in legs[ci]:
+            near = ~planned & (np.hypot(*(starts - way[-1]).T) < GOAL_RELEASE)
+            mask &= ~near
+        f = 0
+        ok = True
+        row = legs[ci]
+        for j, (gi, way) in enumerate(row):
+            g = c.goals[gi]
+            w = g.time
+            if g.after is not None:
+                a = arrive.get((names[g.after["character"]], g.after["goal"]))
+                if a is not None:
+                    lo, hi = a / fps + g.after["within"][0], a / fps + g.after["within"][1]
+                    w = (lo, hi) if w is None else (max(w[0], lo), min(w[1], hi))
+            last = min(int(w[1] * fps), n_total - 1) if w is not None else n_total - 1
+            b = way[-1]
+            sel = pos[mask]
+            sel_r = rad[mask]
+
+            def occupied_at(frame, sel=sel, sel_r=sel_r):
+                t = min(T - 1, int(round(frame / STEP)))
+                return sel[:, t], sel_r
+
+            def hold(frame, b=b, sel=sel, sel_r=sel_r):
+                t = min(T - 1, int(round(frame / STEP)))
+                d = np.hypot(sel[:, t:, 0] - b[0], sel[:, t:, 1] - b[1])
+                return not (d < sel_r[:, None] + STAND_RADIUS).any()
+
+            route = timed_route(way, f, occupied_at, static, WALK_RADIUS, last,
+                                hold if j == len(row) - 1 else None)
+            if route is None:
+                ok = False
+                break
+            pts, frames = route[3]
+            ts = np.clip(frames // STEP, 0, T - 1)
+            pos[k, ts] = pts
+            pos[k, ts[-1]:] = b
+            arr = int(frames[-1])
+            if w is not None:
+                arr = max(arr, int(w[0] * fps))
+            arrive[(ci, gi)] = arr
+            f = arr + int(CHANGE_S.get(g.kind, 0.0) * fps)
+        planned[k] = True
+        if not ok:
+            failed.append(ci)
+    return failed
+
+
+def interaction_groups(sc, env, legs) -> list:
+    """Characters whose routes (start, way points, goals) come within ``GROUP_REACH`` of each
+    other with a clear line between (not through a wall), or who are tied by ``after``, as
+    groups (lists of indices, each in file order; groups ordered by their first member)."""
+    from scipy.spatial import cKDTree
+    n = len(sc.characters)
+    parent = list(range(n))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def join(i, j):
+        a, b = find(i), find(j)
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+
+    names = {c.name: i for i, c in enumerate(sc.characters)}
+    for i, c in enumerate(sc.characters):
+        for g in c.goals:
+            if g.after is not None:
+                join(i, names[g.after["character"]])
+    pts, owner = [], []
+    for i, c in enumerate(sc.characters):
+        line = [np.asarray(c.position, float)[None]] + [way for _, way in legs[i]]
+        line = np.concatenate(line)
+        seg = np.diff(line, axis=0)
+        length = np.hypot(*seg.T)
+        for a, d, L in zip(line[:-1], seg, length):
+            m = max(1, int(np.ceil(L / GROUP_SAMPLE)))
+            pts.append(a + (np.arange(m) / m)[:, None] * d)
+            owner.append(np.full(m, i))
+        pts.append(line[-1:])
+        owner.append(np.array([i]))
+    P = np.concatenate(pts)
+    O = np.concatenate(owner)
+    pairs = cKDTree(P).query_pairs(GROUP_REACH, output_type="ndarray")
+    if len(pairs):
+        pairs = pairs[O[pairs[:, 0]] != O[pairs[:, 1]]]
+    if len(pairs) and env is not None and (len(env.polygons) or len(env.circles)):
+        pairs = pairs[env.segment_clear(P[pairs[:, 0]], P[pairs[:, 1]], 0.0)]
+    for a, b in np.unique(np.sort(O[pairs], axis=1), axis=0) if len(pairs) else ():
+        join(int(a), int(b))
+    groups: dict = {}
+    for i in range(n):
+        groups.setdefault(find(i), []).append(i)
+    return sorted(groups.values(), key=lambda g: g[0])
+
+
+def _to_front(order: list, ci: int, deps: list) -> list:
+    """``order`` with ``ci`` moved as early as its ``after`` dependencies allow."""
+    rest = [o for o in order if o != ci]
+    k = max([rest.index(d) + 1 for d in deps[ci] if d in rest], default=0)
+    return rest[:k] + [ci] + rest[k:]
+
+
+def lattice_order(sc, env, roadmap, static, fps: float, n_total: int, candidates=CANDIDATES,
+                  climb: int = CLIMB_STEPS, log=None) -> list:
+    """The planning order chosen per interaction group by the stand-in plan (see the module
+    docstring): the candidate with the fewest characters left without a route (ties: the
+    earlier candidate), then up to ``climb`` hill-climbing steps, each moving the first such
+    character to the front of the group, kept when fewer are left without one."""
+    from .scheduler import _after_deps, crowd_order
+    legs = _legs(sc, env, roadmap)
+    deps = _after_deps(sc)
+    full = {how: crowd_order(sc, how, env, roadmap) for how in dict.fromkeys(("file", *candidates))}
+    out = []
+    for group in interaction_groups(sc, env, legs):
+        members = set(group)
+        if len(group) > MAX_GROUP:
+            out += [ci for ci in full["file"] if ci in members]
+            if log:
+                log(f"order of {len(group)} characters from {sc.characters[group[0]].name}: file "
+                    f"(more than {MAX_GROUP} in one group)")
+            continue
+        best, best_f, best_how = None, None, None
+        for how in candidates:
+            order = [ci for ci in full[how] if ci in members]
+            if best is not None and order == best:
+                continue
+            f = lattice_failures(sc, static, legs, order, fps, n_total)
+            if best_f is None or len(f) < len(best_f):
+                best, best_f, best_how = order, f, how
+            if not f:
+                break
+        steps = 0
+        tried = set()
+        while best_f and steps < climb:
+            ci = next((c for c in best_f if c not in tried), None)
+            if ci is None:
+                break
+            tried.add(ci)
+            order = _to_front(best, ci, deps)
+            if order == best:
+                continue
+            steps += 1
+            f = lattice_failures(sc, static, legs, order, fps, n_total)
+            if len(f) < len(best_f):
+                best, best_f, best_how, tried = order, f, best_how + "+climb", set()
+        if log and len(group) > 1:
+            log(f"order of {len(group)} characters from {sc.characters[group[0]].name}: {best_how}, "
+                f"{len(best_f)} without a stand-in route")
+        out += best
+    return out
