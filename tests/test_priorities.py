@@ -6,7 +6,7 @@ from runtime.crowd.checker import check_crowd
 from runtime.crowd.clearance import Clearance
 from runtime.crowd.environment import Environment
 from runtime.crowd.planner import CrowdPolicy
-from runtime.crowd.priorities import _legs, interaction_groups, lattice_failures
+from runtime.crowd.priorities import route_legs, interaction_groups, lattice_failures
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import crowd_order, plan_scenario
 
@@ -43,7 +43,7 @@ def _door_scenario():
 def test_a_goal_in_a_doorway_leaves_whoever_is_planned_after_it_without_a_route():
     env, roadmap, static = _door()
     sc = _door_scenario()
-    legs = _legs(sc, env, roadmap)
+    legs = route_legs(sc, env, roadmap)
     n_total = int(sc.duration * FPS) + 1
     assert lattice_failures(sc, static, legs, [0, 1], FPS, n_total) == [1]
     assert lattice_failures(sc, static, legs, [1, 0], FPS, n_total) == []
@@ -58,7 +58,7 @@ def test_a_window_too_early_for_the_walk_has_no_route():
     sc = parse_scenario({"name": "early", "duration": 40.0, "seed": 0,
                          "character": [_char("quick", (-6.0, 0.0), (8.0, -3.0), time=(8.0, 9.0)),
                                        _char("easy", (-6.0, 0.0), (8.0, -3.0), time=(20.0, 22.0))]})
-    legs = _legs(sc, env, roadmap)
+    legs = route_legs(sc, env, roadmap)
     assert lattice_failures(sc, static, legs, [0], FPS, n_total) == [0]
     assert lattice_failures(sc, static, legs, [1], FPS, n_total) == []
 
@@ -73,7 +73,7 @@ def test_groups_join_routes_in_sight_of_each_other_and_after_ties_but_not_throug
                                        _char("b", (-0.8, 10.0), (-0.8, 20.0)),
                                        _char("c", (1.6, 10.0), (1.6, 20.0), time=(15.0, 20.0)),
                                        _char("d", (20.0, -20.0), (25.0, -20.0), after="c")]})
-    groups = interaction_groups(sc, env, _legs(sc, env, roadmap))
+    groups = interaction_groups(sc, env, route_legs(sc, env, roadmap))
     assert groups == [[0, 1], [2, 3]]
 
 

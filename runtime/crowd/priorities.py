@@ -26,7 +26,7 @@ import numpy as np
 
 from .planner.route import STEP, timed_route
 
-__all__ = ["lattice_failures", "interaction_groups", "lattice_order", "CANDIDATES", "WALK_RADIUS",
+__all__ = ["route_legs", "lattice_failures", "interaction_groups", "lattice_order", "CANDIDATES", "WALK_RADIUS",
            "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S", "MAX_GROUP"]
 
 CANDIDATES = ("file", "endpoints", "earliest", "longest")   # orders tried first, per group
@@ -41,7 +41,7 @@ MAX_GROUP = 40          # characters: a larger group keeps the file order (a sta
 CHANGE_S = {"seat": 3.0, "box": 3.0}   # s of state change after arriving at such a goal
 
 
-def _legs(sc, env, roadmap) -> list:
+def route_legs(sc, env, roadmap) -> list:
     """Per character, per goal with a position: (goal index, way points (n, 2))."""
     out = []
     for c in sc.characters:
@@ -64,7 +64,7 @@ def lattice_failures(sc, static, legs, order, fps: float, n_total: int) -> list:
 
     Args:
         sc: the scenario. static: signed distance to the obstacles (callable on (n, 2)), or None.
-        legs: per character, [(goal index, way points)] (:func:`_legs`).
+        legs: per character, [(goal index, way points)] (:func:`route_legs`).
         order: the characters to plan, in turn; the others are not there at all.
         fps, n_total: the clock (frames per second, frames in the scenario).
     """
@@ -191,28 +191,34 @@ def _to_front(order: list, ci: int, deps: list) -> list:
     return rest[:k] + [ci] + rest[k:]
 
 
-def lattice_order(sc, env, roadmap, static, fps: float, n_total: int, candidates=CANDIDATES,
+def lattice_order(sc, env, roadmap, static, fps: float, n_total: int, candidates: dict, deps: list,
                   climb: int = CLIMB_STEPS, log=None) -> list:
     """The planning order chosen per interaction group by the stand-in plan (see the module
     docstring): the candidate with the fewest characters left without a route (ties: the
     earlier candidate), then up to ``climb`` hill-climbing steps, each moving the first such
-    character to the front of the group, kept when fewer are left without one."""
-    from .scheduler import _after_deps, crowd_order
-    legs = _legs(sc, env, roadmap)
-    deps = _after_deps(sc)
-    full = {how: crowd_order(sc, how, env, roadmap) for how in dict.fromkeys(("file", *candidates))}
+    character to the front of the group, kept when fewer are left without one.
+
+    Args:
+        candidates: {name: order of all characters}, in the order they are preferred; the
+            first is kept by groups over ``MAX_GROUP``.
+        deps: per character, the characters whose arrivals time its goals (``after``): a
+            character is never moved before them.
+    """
+    legs = route_legs(sc, env, roadmap)
+    full = candidates
+    first = next(iter(full))
     out = []
     for group in interaction_groups(sc, env, legs):
         members = set(group)
         if len(group) > MAX_GROUP:
-            out += [ci for ci in full["file"] if ci in members]
+            out += [ci for ci in full[first] if ci in members]
             if log:
-                log(f"order of {len(group)} characters from {sc.characters[group[0]].name}: file "
+                log(f"order of {len(group)} characters from {sc.characters[group[0]].name}: {first} "
                     f"(more than {MAX_GROUP} in one group)")
             continue
         best, best_f, best_how = None, None, None
-        for how in candidates:
-            order = [ci for ci in full[how] if ci in members]
+        for how, whole in full.items():
+            order = [ci for ci in whole if ci in members]
             if best is not None and order == best:
                 continue
             f = lattice_failures(sc, static, legs, order, fps, n_total)

@@ -22,7 +22,7 @@ from .reservations import Reservations
 from .tracks import Track
 
 __all__ = ["CharacterResult", "CrowdResult", "PlanContext", "plan_scenario", "plan_one", "repair", "hold_starts",
-           "start_node", "seat_hold", "hold_goal", "seated_radius", "crowd_order", "ORDERS", "REPAIR_BLOCKERS"]
+           "start_node", "seat_hold", "hold_goal", "seated_radius", "crowd_order", "after_dependencies", "ORDERS", "REPAIR_BLOCKERS"]
 
 
 @dataclass
@@ -225,7 +225,7 @@ def _promote(ctx: PlanContext, results: dict, ci: int, holds_of: dict, place, un
     for step in first.ladder:
         for b, n in step.blocked_by.items():
             hits[b] = hits.get(b, 0) + n
-    deps = _after_deps(ctx.sc)
+    deps = after_dependencies(ctx.sc)
 
     def free(b):            # not planned yet, and its ``after`` goals timed by characters planned (not ``ci``)
         return (b != ci and b not in results and 0 <= b < len(ctx.sc.characters)
@@ -542,9 +542,10 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None, static=
     if how == "endpoints":
         return _soft_order(sc, endpoint_precedence(sc, env, roadmap))
     if how == "lattice":
-        from .priorities import lattice_order
+        from .priorities import CANDIDATES, lattice_order
         n_total = n_total if n_total is not None else int(round(sc.duration * fps)) + 1
-        return lattice_order(sc, env, roadmap, static, fps, n_total, log=log)
+        candidates = {k: crowd_order(sc, k, env, roadmap) for k in CANDIDATES}
+        return lattice_order(sc, env, roadmap, static, fps, n_total, candidates, after_dependencies(sc), log=log)
     n = len(sc.characters)
 
     def walk(c):
@@ -563,7 +564,7 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None, static=
             return float(g.time[0])
         return walk(c) / WALK_SPEED
 
-    deps = _after_deps(sc)
+    deps = after_dependencies(sc)
     users = [[] for _ in range(n)]
     for i, d in enumerate(deps):
         for j in d:
@@ -582,7 +583,7 @@ def crowd_order(sc: Scenario, how: str = "file", env=None, roadmap=None, static=
     return order
 
 
-def _after_deps(sc: Scenario) -> list[set]:
+def after_dependencies(sc: Scenario) -> list[set]:
     """Per character, the other characters whose arrivals time its goals (``after``)."""
     idx = {c.name: i for i, c in enumerate(sc.characters)}
     deps = [set() for _ in sc.characters]
@@ -599,7 +600,7 @@ def _soft_order(sc: Scenario, soft: set) -> list[int]:
     hard dependencies are planned, the one with the fewest soft predecessors not yet planned
     (ties: file order)."""
     n = len(sc.characters)
-    hard = _after_deps(sc)
+    hard = after_dependencies(sc)
     pred = [set() for _ in range(n)]
     for a, b in soft:
         pred[b].add(a)
