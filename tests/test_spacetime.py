@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from runtime.crowd import spacetime
 from runtime.crowd.spacetime import SpaceTimeIndex
@@ -16,9 +17,13 @@ def brute(stored, frames, xz, r, margin=0.0, ignore=None):
     return hit
 
 
-def test_matches_brute_force_through_removals_and_merges():
+@pytest.mark.parametrize("capacity", [0, 300, 5000])
+def test_matches_brute_force_through_removals_and_merges(capacity):
+    """``capacity``: none, a hint too small (the index grows past it), room for every row (the
+    arrays are made once)."""
     rng = np.random.default_rng(0)
-    idx = SpaceTimeIndex(cell=1.3)
+    idx = SpaceTimeIndex(cell=1.3, capacity=capacity)
+    keys0 = idx._keys
     stored = {}
     for step in range(40):
         o = int(rng.integers(0, 12))
@@ -63,6 +68,7 @@ def test_matches_brute_force_through_removals_and_merges():
     live = sum(len(f) for f, _, _ in stored.values())
     assert idx.count <= max(SpaceTimeIndex.MIN_CAPACITY, 2 * live + 80)
     assert len(idx._head) >= 2 * len(idx._keys)                            # load <= 0.5
+    assert (idx._keys is keys0) == (capacity == 5000)
 
 
 def test_forget_before_drops_played_frames_at_compaction():

@@ -33,11 +33,17 @@ def idle_loops(g, node: int) -> np.ndarray:
 def idle_loop(g, node: int) -> int:
     """The node's idle loop (:func:`idle_loops`) with the least drift (the one idling repeats),
     or -1 when it has none."""
-    loops = idle_loops(g, node)
-    if len(loops) == 0:
-        return -1
-    drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
-    return int(loops[np.argmin(drift)])
+    memo = g.__dict__.setdefault("_idle_loop_memo", {})    # per graph: every wait asks again
+    e = memo.get(int(node))
+    if e is None:
+        loops = idle_loops(g, node)
+        if len(loops) == 0:
+            e = -1
+        else:
+            drift = np.hypot(g.edge_disp[loops, 0], g.edge_disp[loops, 1]) + 0.3 * np.abs(g.edge_disp[loops, 2])
+            e = int(loops[np.argmin(drift)])
+        memo[int(node)] = e
+    return e
 
 
 def track_radius(graph, track: Track) -> np.ndarray:
@@ -58,8 +64,9 @@ def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int, turn: bool = Fals
     g = lib.g
     e = idle_loop(g, cfg.node)
     start = np.array([cfg.x, cfg.z, cfg.heading])
-    last = g.edge_start[np.flatnonzero(g.edge_dst == cfg.node)[0] + 1] - 1 if np.any(g.edge_dst == cfg.node) else 0
     if e < 0 or n_frames <= 1:
+        into = np.flatnonzero(g.edge_dst == cfg.node)
+        last = g.edge_start[into[0] + 1] - 1 if len(into) else 0
         fa = np.full(n_frames, last, dtype=np.int64)
         return Track(fa, fa.copy(), np.zeros(n_frames, np.float32), np.repeat(start[None], n_frames, 0), cfg.frame)
     a, b = g.edge_start[e], g.edge_start[e + 1]

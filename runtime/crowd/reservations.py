@@ -83,12 +83,13 @@ class Reservations(SpaceTimeIndex):
     Args:
         cell: the index's cell size (m).
         n_frames: the scenario's frames.
+        owners: owners expected (the characters): room for all their frames is made up front.
     """
 
-    def __init__(self, cell: float, n_frames: int):
-        super().__init__(cell=cell)
+    def __init__(self, cell: float, n_frames: int, owners: int = 0):
+        super().__init__(cell=cell, capacity=int(owners) * int(n_frames))
         self.n_frames = int(n_frames)
-        self._xzr = np.full((0, self.n_frames, 3), np.nan, dtype=np.float32)
+        self._xzr = np.full((int(owners), self.n_frames, 3), np.nan, dtype=np.float32)
         self._holds = np.zeros((0, 6))            # x, z, r, owner, until (frames before it), from
         self._hold_of: dict[tuple, int] = {}      # (owner, kind) -> row
         self._active = np.zeros(0, dtype=bool)

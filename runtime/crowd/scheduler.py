@@ -105,7 +105,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     passes = max(1, int(sc.synthesis.get("passes", policy.passes)))
     ctx = PlanContext(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static,
                       Reservations(max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05),
-                                   n_total),
+                                   n_total, len(sc.characters)),
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
     order = crowd_order(sc, policy.order, env, roadmap, static=static, fps=fps, n_total=n_total, log=log)

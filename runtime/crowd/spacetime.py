@@ -136,13 +136,19 @@ class SpaceTimeIndex:
     _GOLDEN = np.uint64(0x9E3779B97F4A7C15)    # Fibonacci hashing multiplier
     MIN_CAPACITY = 1024
 
-    def __init__(self, cell: float = 1.2):
+    MAX_PRESIZE = 1 << 21        # rows a capacity hint may allocate up front (about 100 MB)
+
+    def __init__(self, cell: float = 1.2, capacity: int = 0):
+        """``capacity``: rows expected (e.g. characters x frames), allocated up front (at most
+        ``MAX_PRESIZE``) so that filling the index does not grow and relink it again and again."""
         self.cell = float(cell)
         self._n = 0                                        # rows used (stale ones included)
-        self._keys = np.empty(0, dtype=np.int64)
-        self._rows = np.empty((0, 5), dtype=np.float64)    # x, z, r, owner, version
-        self._next = np.empty(0, dtype=np.int64)
-        self._head = np.full(2, -1, dtype=np.int64)
+        cap = min(int(capacity), self.MAX_PRESIZE)
+        cap = max(self.MIN_CAPACITY, cap) if cap > 0 else 0
+        self._keys = np.empty(cap, dtype=np.int64)
+        self._rows = np.empty((cap, 5), dtype=np.float64)  # x, z, r, owner, version
+        self._next = np.empty(cap, dtype=np.int64)
+        self._head = np.full(1 << int(2 * cap - 1).bit_length() if cap else 2, -1, dtype=np.int64)
         self._version = np.zeros(64, dtype=np.float64)
         self._floor = -1
         self.max_radius = 0.0
