@@ -137,33 +137,18 @@ def interaction_groups(sc, env, legs) -> list:
     """Characters whose routes (start, way points, goals) come within ``GROUP_REACH`` of each
     other with a clear line between (not through a wall), or who are tied by ``after``, as
     groups (lists of indices, each in file order; groups ordered by their first member)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
     n = len(sc.characters)
-    parent = list(range(n))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    def join(i, j):
-        a, b = find(i), find(j)
-        if a != b:
-            parent[max(a, b)] = min(a, b)
-
     names = {c.name: i for i, c in enumerate(sc.characters)}
-    for i, c in enumerate(sc.characters):
-        for g in c.goals:
-            if g.after is not None:
-                join(i, names[g.after["character"]])
+    ties = [(i, names[g.after["character"]]) for i, c in enumerate(sc.characters) for g in c.goals
+            if g.after is not None]
     pts, owner = [], []
     for i, c in enumerate(sc.characters):
-        line = [np.asarray(c.position, float)[None]] + [way for _, way in legs[i]]
-        line = np.concatenate(line)
+        line = np.concatenate([np.asarray(c.position, float)[None]] + [way for _, way in legs[i]])
         seg = np.diff(line, axis=0)
-        length = np.hypot(*seg.T)
-        for a, d, L in zip(line[:-1], seg, length):
+        for a, d, L in zip(line[:-1], seg, np.hypot(*seg.T)):
             m = max(1, int(np.ceil(L / GROUP_SAMPLE)))
             pts.append(a + (np.arange(m) / m)[:, None] * d)
             owner.append(np.full(m, i))
@@ -171,16 +156,16 @@ def interaction_groups(sc, env, legs) -> list:
         owner.append(np.array([i]))
     P = np.concatenate(pts)
     O = np.concatenate(owner)
-    pairs = cKDTree(P).query_pairs(GROUP_REACH, output_type="ndarray")
-    if len(pairs):
-        pairs = pairs[O[pairs[:, 0]] != O[pairs[:, 1]]]
+    pairs = cKDTree(P).query_pairs(GROUP_REACH, output_type="ndarray").reshape(-1, 2)
+    pairs = pairs[O[pairs[:, 0]] != O[pairs[:, 1]]]
     if len(pairs) and env is not None and (len(env.polygons) or len(env.circles)):
         pairs = pairs[env.segment_clear(P[pairs[:, 0]], P[pairs[:, 1]], 0.0)]
-    for a, b in np.unique(np.sort(O[pairs], axis=1), axis=0) if len(pairs) else ():
-        join(int(a), int(b))
+    edges = np.concatenate([O[pairs], np.asarray(ties, dtype=np.int64).reshape(-1, 2)])
+    _, label = connected_components(coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)),
+                                    directed=False)
     groups: dict = {}
     for i in range(n):
-        groups.setdefault(find(i), []).append(i)
+        groups.setdefault(int(label[i]), []).append(i)
     return sorted(groups.values(), key=lambda g: g[0])
 
 
