@@ -13,7 +13,7 @@ window. The order is chosen per interaction group (characters whose routes come 
 candidate orders of :data:`CANDIDATES`, the one whose stand-in leaves the fewest characters
 without a route, then a few steps of hill climbing that move a character left without one to
 the front of its group. Groups are planned one after another; across groups the order does
-not matter (they never meet).
+not matter (their routes never come near each other).
 
 Limits (beside the code): discs of ``WALK_RADIUS`` walking and ``STAND_RADIUS`` standing (the
 lattice adds ``route.SLACK``); a state change (sitting down, picking a box up) takes

@@ -136,7 +136,7 @@ class SpaceTimeIndex:
     _GOLDEN = np.uint64(0x9E3779B97F4A7C15)    # Fibonacci hashing multiplier
     MIN_CAPACITY = 1024
 
-    MAX_PRESIZE = 1 << 21        # rows a capacity hint may allocate up front (about 100 MB)
+    MAX_PRESIZE = 1 << 21        # rows a capacity hint may allocate up front (about 150 MB with the bucket table)
 
     def __init__(self, cell: float = 1.2, capacity: int = 0):
         """``capacity``: rows expected (e.g. characters x frames), allocated up front (at most
