@@ -15,8 +15,8 @@ without a route, then a few steps of hill climbing that move a character left wi
 the front of its group. Groups are planned one after another; across groups the order does
 not matter (their routes never come near each other).
 
-Limits (beside the code): discs of ``WALK_RADIUS`` walking and ``STAND_RADIUS`` standing (the
-lattice adds ``route.SLACK``); a state change (sitting down, picking a box up) takes
+Limits (beside the code): the character being planned is a disc of ``WALK_RADIUS``, everyone
+else (walking or standing) one of ``STAND_RADIUS`` (the lattice adds ``route.SLACK``); a state change (sitting down, picking a box up) takes
 ``CHANGE_S``; at most ``CLIMB_STEPS`` stand-in plans of a group per hill climb; a group of
 more than ``MAX_GROUP`` characters keeps the file order.
 """
@@ -26,12 +26,12 @@ import numpy as np
 
 from .planner.route import STEP, timed_route
 
-__all__ = ["route_legs", "lattice_failures", "interaction_groups", "lattice_order", "CANDIDATES", "WALK_RADIUS",
+__all__ = ["character_legs", "route_legs", "lattice_failures", "interaction_groups", "lattice_order", "CANDIDATES", "WALK_RADIUS",
            "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S", "MAX_GROUP"]
 
 CANDIDATES = ("file", "endpoints", "earliest", "longest")   # orders tried first, per group
-WALK_RADIUS = 0.45      # m: the stand-in's walking disc
-STAND_RADIUS = 0.35     # m: ... and standing disc (starts held, goals reached)
+WALK_RADIUS = 0.45      # m: the disc of the character the stand-in is planning
+STAND_RADIUS = 0.35     # m: ... and of everyone else (held starts, planned discs walking or standing)
 GOAL_RELEASE = 1.2      # m: a held start this close to a character's goal gives way to it (a swap)
 GROUP_REACH = 2.0       # m between two routes, in sight of each other, that joins their groups
 GROUP_SAMPLE = 0.5      # m between the route points the groups are found from
@@ -41,21 +41,24 @@ MAX_GROUP = 40          # characters: a larger group keeps the file order (a sta
 CHANGE_S = {"seat": 3.0, "box": 3.0}   # s of state change after arriving at such a goal
 
 
+def character_legs(c, env, roadmap) -> list:
+    """Character ``c``'s legs: per goal with a position, (goal index, way points (n, 2) from the
+    previous goal, or the start, to it): the roadmap's (straight lines without a roadmap)."""
+    prev = np.asarray(c.position, float)
+    row = []
+    for gi, g in enumerate(c.goals):
+        if g.position is None:
+            continue
+        b = np.asarray(g.position, float)
+        way = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
+        row.append((gi, np.asarray(way, float)))
+        prev = b
+    return row
+
+
 def route_legs(sc, env, roadmap) -> list:
-    """Per character, per goal with a position: (goal index, way points (n, 2))."""
-    out = []
-    for c in sc.characters:
-        prev = np.asarray(c.position, float)
-        row = []
-        for gi, g in enumerate(c.goals):
-            if g.position is None:
-                continue
-            b = np.asarray(g.position, float)
-            way = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
-            row.append((gi, np.asarray(way, float)))
-            prev = b
-        out.append(row)
-    return out
+    """Per character of ``sc``, its legs (:func:`character_legs`)."""
+    return [character_legs(c, env, roadmap) for c in sc.characters]
 
 
 def lattice_failures(sc, static, legs, order, fps: float, n_total: int) -> list:
@@ -70,19 +73,16 @@ def lattice_failures(sc, static, legs, order, fps: float, n_total: int) -> list:
     """
     order = list(order)
     T = n_total // STEP + 2
-    k_of = {ci: k for k, ci in enumerate(order)}
-    pos = np.array([np.broadcast_to(np.asarray(sc.characters[ci].position, float), (T, 2)) for ci in order])
-    pos = pos.reshape(len(order), T, 2).copy()
+    starts = np.array([np.asarray(sc.characters[ci].position, float) for ci in order]).reshape(-1, 2)
+    pos = np.repeat(starts[:, None], T, axis=1)     # (characters, time steps, 2): held starts at first
     rad = np.full(len(order), STAND_RADIUS)
     arrive = {}
     failed = []
     names = {c.name: i for i, c in enumerate(sc.characters)}
-    others = np.ones(len(order), dtype=bool)
     planned = np.zeros(len(order), dtype=bool)
-    starts = pos[:, 0].copy()
     for k, ci in enumerate(order):
         c = sc.characters[ci]
-        mask = others.copy()
+        mask = np.ones(len(order), dtype=bool)
         mask[k] = False
         # held starts at this character's goals give way (a swap of places)
         for _, way in legs[ci]:

@@ -17,6 +17,7 @@ from .clearance import Clearance
 from .goals import plan_goals
 from .idle import still_nodes, track_radius
 from .planner import CrowdPolicy, MotionCache, MotionLibrary, SearchParams
+from .priorities import character_legs
 from .scenario import Scenario, ScenarioError, planning_order
 from .reservations import Reservations
 from .tracks import Track
@@ -453,16 +454,8 @@ def _routes(sc: Scenario, env, roadmap) -> list:
 def _route(c, env, roadmap) -> np.ndarray:
     """Character ``c``'s route through all its goals: the roadmap's way points from the start
     to each goal in turn (straight lines without a roadmap), as one (n, 2) polyline."""
-    pts = [np.asarray(c.position, float)[None]]
-    prev = np.asarray(c.position, float)
-    for g in c.goals:
-        if g.position is None:
-            continue
-        b = np.asarray(g.position, float)
-        path = roadmap.waypoints(env, prev, b) if roadmap is not None and env is not None else np.array([prev, b])
-        pts.append(np.asarray(path, float)[1:])
-        prev = b
-    return np.concatenate(pts)
+    return np.concatenate([np.asarray(c.position, float)[None]]
+                          + [way[1:] for _, way in character_legs(c, env, roadmap)])
 
 
 def _points_to_routes(points: np.ndarray, routes: list):
