@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from runtime.crowd.checker import adjustment_rates, overlapping_pairs  # noqa: E402
 from runtime.crowd.tracks import Track  # noqa: E402
+from runtime.motion.cylinders import blend_cylinders  # noqa: E402
 from runtime.world import MAX_BUFFER, World  # noqa: E402
 
 
@@ -121,14 +122,14 @@ def main(argv=None):
 
     # independent check of completed goals
     g = w.graph
-    rad = np.maximum(g.frame_radius[rec_a], g.frame_radius[rec_b]).astype(np.float64)
-    pairs = overlapping_pairs(rec_root[:, :, :2], rad)
+    cxz, rad = blend_cylinders(g, rec_a, rec_b, rec_root)
+    pairs = overlapping_pairs(cxz, rad)
     in_pair = {}
     # frames of overlap per character (which goals' motions are involved)
     over_frames = {}
     if pairs:
         for f in range(ticks):
-            xz = rec_root[f, :, :2]
+            xz = cxz[f]
             for (i, j) in pairs:
                 if np.hypot(*(xz[i] - xz[j])) < rad[f, i] + rad[f, j]:
                     over_frames.setdefault(i, []).append(f)

@@ -15,7 +15,7 @@ from .motion.graph import MotionGraph
 
 __all__ = ["cache_dir", "default_library_path", "resolve_library", "load_library"]
 
-DEFAULT_LIBRARY_NAME = "default-v2.cwpack"   # the motion_graph pack version: packs of both can share a cache
+DEFAULT_LIBRARY_NAME = "default-v3.cwpack"   # the motion_graph pack version: packs of both can share a cache
 
 
 def cache_dir() -> Path:

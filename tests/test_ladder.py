@@ -10,6 +10,7 @@ from runtime.crowd.planner.route import ROOMY, SLICE, STEP, timed_route, timed_r
 from runtime.crowd.reservations import Reservations
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import plan_scenario
+from runtime.motion.cylinders import blend_cylinders
 
 
 def _walkers(n=5, frames=600):
@@ -145,8 +146,9 @@ def test_the_world_never_plays_a_colliding_plan(default_graph):
     for _ in range(30 * 12):
         w.tick()
         s, a, b, t, root = w.playback.gather(0)
-        xz.append(root[:, :2].copy())
-        rad.append(np.maximum(g.frame_radius[a], g.frame_radius[b]))
+        cxz, r = blend_cylinders(g, a, b, root)
+        xz.append(cxz)
+        rad.append(r)
     assert overlapping_pairs(np.array(xz), np.array(rad, dtype=np.float64)) == {}
     assert any(e.character == "goes" for e in warnings), [e.data for e in warnings]
     msg = next(e.data["message"] for e in warnings if e.character == "goes")
@@ -178,7 +180,7 @@ def test_held_starts_give_way_to_a_swap_of_places(default_graph, monkeypatch):
     class Ctx:        # what goal_holds reads
         pass
     ctx = Ctx()
-    ctx.sc, ctx.lib, ctx.params = sc, type("L", (), {"max_radius": 0.5})(), type("P", (), {"margin": 0.02})()
+    ctx.sc, ctx.lib, ctx.params = sc, type("L", (), {"max_radius": 0.5, "max_reach": 0.5})(), type("P", (), {"margin": 0.02})()
     far = {1: (np.array([6.0, 0.0]), 0.4, 100), 2: (np.array([3.0, 3.0]), 0.4, 100)}
     assert goal_holds(ctx, 0, far) == [1]
 

@@ -13,6 +13,7 @@ from runtime.crowd.scenario import parse_scenario, planning_order
 from runtime.crowd.planner import (Config, CrowdPolicy, Goal, MotionLibrary, SearchParams, SegmentPlanner,
                                    run_to_completion)
 from runtime.crowd.scheduler import plan_scenario
+from runtime.motion.cylinders import blend_cylinders
 from runtime.crowd.tracks import Track
 
 
@@ -289,7 +290,7 @@ def test_compiled_clear_test_makes_the_numpy_seeds_among_characters_and_obstacle
     g = default_graph
     lib = MotionLibrary(g)
     rng = np.random.default_rng(11)
-    index = SpaceTimeIndex(cell=2 * lib.max_radius + 0.1)
+    index = SpaceTimeIndex(cell=2 * lib.max_reach + 0.1)
     f = np.arange(0, 600)
     for o in range(6):                 # characters walking across the field, one per lane
         x0, z0 = rng.uniform(-1, 1), rng.uniform(1, 7)
@@ -651,8 +652,10 @@ def _repair_setup(monkeypatch, plans, lead=False, starts=None, seen=None):
         {"name": n, "start": {"position": [starts.get(n, 0.0), 0.0], "heading": 0.0, "pose": "stand"},
          "goal": [after if lead and n == "c" else goal]} for n in ("a", "b", "c")]})
     graph = types.SimpleNamespace(frame_radius=np.full(4, 0.4), nodes_with_label=lambda label: np.array([0]),
-                                  edge_src=np.array([0]), edge_dst=np.array([0]), edge_radius=np.array([0.3]))
-    lib = types.SimpleNamespace(max_radius=0.4)
+                                  edge_src=np.array([0]), edge_dst=np.array([0]), edge_radius=np.array([0.3]),
+                                  edge_reach=np.array([0.3]), edge_start=np.array([0, 4]), num_edges=1,
+                                  edge_state=np.array([0]), frame_cxz=np.zeros((4, 2)))
+    lib = types.SimpleNamespace(max_radius=0.4, max_reach=0.4)
 
     def result(name, x, warnings=()):
         n = 31
@@ -807,7 +810,7 @@ def test_pairs_static_clear_agrees_with_a_frame_by_frame_test(default_graph):
     def frames_clear(c, edges):
         for e in edges:
             a, b = g.edge_start[e], g.edge_start[e + 1]
-            local = np.stack([g.frame_xz[a:b, 0], g.frame_xz[a:b, 1], g.frame_heading[a:b]], axis=1)
+            local = np.stack([g.frame_cxz[a:b, 0], g.frame_cxz[a:b, 1], g.frame_heading[a:b]], axis=1)
             w = compose(c[None], local)
             if np.any(static(w[:, :2]) < g.frame_radius[a:b] + planner.p.margin):
                 return False
@@ -960,8 +963,9 @@ def test_the_final_test_finds_the_first_collision_and_collides_early_uses_it(def
     planner.hold = lambda r: (np.arange(r.start_frame + m, r.start_frame + m + 30), np.tile(r.root[-1:, :2], (30, 1)),
                               np.full(30, 0.3))
     first = planner.final_collision(res)
-    d = 3.0 - root[:, 1]
-    rad = g.frame_radius[fa[0]] + planner.p.margin + 0.3
+    cxz, r = blend_cylinders(g, fa, fa, root)
+    d = np.hypot(cxz[:, 0], cxz[:, 1] - 3.0)
+    rad = r + planner.p.margin + 0.3
     assert first == int(np.flatnonzero(d < rad)[0]) > 40          # the first frame within reach of it
     assert collides_early(planner, res, first + 1) and not collides_early(planner, res, first)
     # the same through the fallback (first sample of the boolean collide) and the numpy walk

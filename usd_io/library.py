@@ -27,8 +27,8 @@ to play that clip alone); their root starts at the origin facing +Z, i.e. they h
 Space. In ``All`` each clip starts facing +Z (heading 0) at its own placement
 ``crowdweave:edgePlacement[e] = (x, z, heading=0)``, on a grid of cells: columns along +X,
 rows along +Z, ``columns`` per row (default ``ceil(sqrt(E))``; ``columns=E`` gives one row
-along +X). A cell is as wide and deep as the largest clip footprint (root path widened by the
-per-frame bounding radius, ``graph.frame_radius``) plus ``gap`` metres, and each clip's
+along +X). A cell is as wide and deep as the largest clip footprint (cylinder axes' path widened
+by the per-frame bounding radius, ``graph.frame_cxz`` and ``graph.frame_radius``) plus ``gap`` metres, and each clip's
 footprint is placed at its cell's corner, so no two clips overlap spatially.
 
 Graph attributes on ``/Library`` (arrays indexed by node or by edge):
@@ -108,9 +108,9 @@ def _local_frames_clip(graph) -> Clip:
 def library_layout(graph, columns: int | None = None, gap: float = 1.0) -> np.ndarray:
     """Placement (E, 3) = (x, z, heading) of each edge clip's start in the ``All`` animation.
 
-    Headings are 0 (every clip starts facing +Z). Footprints are the clip's root path at a
-    zero origin widened by ``graph.frame_radius`` (which bounds every joint and end site about
-    the root's vertical axis), so placed footprints never overlap (see the module docstring).
+    Headings are 0 (every clip starts facing +Z). Footprints are the path of the clip's
+    bounding cylinders at a zero origin (``graph.frame_cxz`` widened by ``graph.frame_radius``,
+    which bound every joint and end site), so placed footprints never overlap (see the module docstring).
     """
     E = graph.num_edges
     out = np.zeros((E, 3))
@@ -119,7 +119,7 @@ def library_layout(graph, columns: int | None = None, gap: float = 1.0) -> np.nd
     cols = _columns(E, columns)
     starts = graph.edge_start[:-1]
     r = graph.frame_radius.astype(np.float64)
-    x, z = graph.frame_xz[:, 0], graph.frame_xz[:, 1]
+    x, z = graph.frame_cxz[:, 0], graph.frame_cxz[:, 1]
     xmin = np.minimum.reduceat(x - r, starts)
     xmax = np.maximum.reduceat(x + r, starts)
     zmin = np.minimum.reduceat(z - r, starts)

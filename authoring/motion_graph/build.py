@@ -16,7 +16,8 @@ from scipy.sparse.csgraph import connected_components
 
 from runtime.motion import Clip, Skeleton, SkeletonMismatchError
 from runtime.motion.contacts import contacts_of
-from runtime.motion.graph import MotionGraph, edge_tables
+from runtime.motion.cylinders import pose_cylinders
+from runtime.motion.graph import MotionGraph
 
 from .derive import runs
 from .footfix import added_slide, knee_range, pin_feet, slide_report, take_slide
@@ -141,16 +142,18 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         hk = occ_hub[m]
         contacts = contacts_of(t.clip)
         snapped = snap_take(t.clip, local, hub_rot[hk], hub_height[hk], params.snap_window)
-        body_radius = edge_tables(snapped)[0]     # the collision cylinder: the snapped body's
+        body = snapped
         if params.pin_feet:
             snapped = pin_feet(t.clip, snapped, contacts, local, flex_range=flex)
+        # the collision cylinders hold the snapped body and the one with its feet corrected
+        axis, radius, reach, _ = pose_cylinders(snapped, also=body if params.pin_feet else None)
         own = take_slide(t.clip, contacts)
         for a, b, s, e, c in cut_edges(snapped, local, hk):
             v, added = added_slide(c, own[s:e])
             if 100.0 * added > params.max_foot_slide:
                 slid.append({"take": t.name, "start": s, "end": e, "added_cm_s": round(100.0 * added, 1)})
                 continue
-            edges.append((a, b, ti, s, e, c, body_radius[s:e + 1]))
+            edges.append((a, b, ti, s, e, c, (axis[s:e + 1], radius[s:e + 1], reach[s:e + 1])))
             slide.append(v)
     if slid:
         log(f"  {len(slid)} edge(s) dropped: planted feet slide over {params.max_foot_slide:g} cm/s faster than "
@@ -195,7 +198,7 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         node_rotations=hub_rot[nodes_kept].astype(np.float32), node_height=hub_height[nodes_kept],
         node_state=node_state[nodes_kept], node_labels=[node_labels[n] for n in nodes_kept],
         edge_src=new_id[src[kept]], edge_dst=new_id[dst[kept]], edge_state=edge_state[kept],
-        edge_labels=[edge_labels[k] for k in kept], clips=clips, radius=[edges[k][6] for k in kept],
+        edge_labels=[edge_labels[k] for k in kept], clips=clips, cylinders=[edges[k][6] for k in kept],
         meta={"sources": [t.path or t.name for t in takes], "edge_origin": meta_edges,
               "pruned_edges": n_pruned_edges, "pruned_nodes": int(len(hubs) - keep_nodes.sum()),
               "hub_frames": [{"take": takes[take_of[h.frame]].name, "frame": int(h.frame - offsets[take_of[h.frame]]),

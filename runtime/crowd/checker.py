@@ -16,9 +16,10 @@ planner's numbers (costs, splice points, arrival frames, displacement values):
   slow drift up to some frame, then the end-anchored raw motion plus a slow drift; the checker
   finds the split that minimises the largest drift rate and reports that rate (m/s, deg/s)
   and the time-warp rate |dsource/dt - 1| (s/s).
-* **Collisions.** Every frame, every pair of characters: the library's bounding cylinders
-  (radius about the root axis) must not overlap; every character against every obstacle
-  footprint (exact distances).
+* **Collisions.** Every frame, every pair of characters: the library's minimum bounding
+  cylinders (per library frame an axis offset from the root and a radius; a frame shown as a
+  blend of two is held by the circle holding both) must not overlap; every character against
+  every obstacle footprint (exact distances).
 """
 from __future__ import annotations
 
@@ -221,15 +222,38 @@ def check_crowd(scenario, tracks: dict, graph, env=None, fps: float = 30.0, eps=
     if not names:
         return CrowdReport(goal_rows, per_char, [], [], summarize(goal_rows, per_char, {}, {}))
     F = min(len(tracks[n]) for n in names)
-    R = np.stack([np.maximum(graph.frame_radius[tracks[n].frames_a[:F]], graph.frame_radius[tracks[n].frames_b[:F]])
-                  for n in names], axis=1).astype(np.float64)     # (F, C)
-    XZ = np.stack([tracks[n].root[:F, :2] for n in names], axis=1)  # (F, C, 2)
+    cyl = [_cylinders(graph, tracks[n], F) for n in names]
+    R = np.stack([c[1] for c in cyl], axis=1)                       # (F, C)
+    XZ = np.stack([c[0] for c in cyl], axis=1)                      # (F, C, 2)
     pair_hits = {(names[i], names[j]): k for (i, j), k in overlapping_pairs(XZ, R).items()}
     obstacle_hits = {names[c]: k for c, k in obstacle_overlaps(XZ, R, env).items()}
     return CrowdReport(goal_rows, per_char,
                        [{"a": a, "b": b, "frames": n} for (a, b), n in sorted(pair_hits.items())],
                        [{"character": k, "frames": v} for k, v in sorted(obstacle_hits.items())],
                        summarize(goal_rows, per_char, pair_hits, obstacle_hits))
+
+
+def _cylinders(graph, track, F):
+    """Axis positions (F, 2) and radii (F,) of the first ``F`` frames of ``track``: each library
+    frame's circle placed by the root, and for a blend the circle holding both."""
+    root = np.asarray(track.root[:F], dtype=np.float64)
+    axis = getattr(graph, "frame_axis", None)
+    circles = []
+    for fr in (track.frames_a[:F], track.frames_b[:F]):
+        r = graph.frame_radius[fr].astype(np.float64)
+        off = np.zeros((F, 2)) if axis is None else axis[fr].astype(np.float64)
+        c, s = np.cos(root[:, 2]), np.sin(root[:, 2])
+        circles.append((root[:, :2] + np.stack([c * off[:, 0] + s * off[:, 1], -s * off[:, 0] + c * off[:, 1]], 1), r))
+    (pa, ra), (pb, rb) = circles
+    d = np.linalg.norm(pb - pa, axis=1)
+    big = np.maximum(ra, rb)
+    span = 0.5 * (d + ra + rb)
+    R = np.maximum(big, span)
+    # centre on the line from a to b, R - ra from a (one circle holding the other: its centre)
+    w = np.clip(np.where(d > 1e-12, (R - ra) / np.maximum(d, 1e-12), 0.0), 0.0, 1.0)
+    w = np.where(ra >= d + rb, 0.0, np.where(rb >= d + ra, 1.0, w))
+    R = np.where(ra >= d + rb, ra, np.where(rb >= d + ra, rb, R))
+    return pa + w[:, None] * (pb - pa), R
 
 
 def overlapping_pairs(XZ: np.ndarray, R: np.ndarray, valid: np.ndarray | None = None) -> dict:

@@ -34,7 +34,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .idle import hold_tail, idle_for, idle_track, track_radius
+from ..motion.cylinders import blend_cylinders
+from .idle import hold_tail, idle_for, idle_track, track_cylinders
 from .planner import Config, Goal, SegmentPlanner, Step, run_to_completion
 from .planner.route import timed_route_steps
 from .scenario import ScenarioError
@@ -204,8 +205,8 @@ def _clear_track(ctx, track: Track) -> bool:
     """Whether ``track`` (on the clock from its ``start_frame``) collides with nobody in the
     index and no obstacle."""
     frames = track.start_frame + np.arange(len(track))
-    rad = track_radius(ctx.graph, track) + ctx.params.margin
-    xz = track.root[:, :2]
+    xz, rad = track_cylinders(ctx.graph, track)
+    rad = rad + ctx.params.margin
     if ctx.static is not None and np.any(ctx.static(xz) < rad):
         return False
     return not np.asarray(ctx.index.overlaps(frames, xz, rad), dtype=bool).any()
@@ -296,8 +297,8 @@ class SegmentLadder:
         into nobody, the ones that pass where it then stands (the planner's ``hold``: a
         character planned earlier walks through the last goal after the arrival)."""
         ctx = self.ctx
-        rad = np.maximum(ctx.graph.frame_radius[res.frames_a], ctx.graph.frame_radius[res.frames_b]) + ctx.params.margin
-        out = ctx.index.overlapping_owners(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
+        xz, rad = blend_cylinders(ctx.graph, res.frames_a, res.frames_b, res.root)
+        out = ctx.index.overlapping_owners(res.start_frame + np.arange(len(res.root)), xz, rad + ctx.params.margin)
         if not out and self.planner.hold is not None:
             tail = self.planner.hold(res)
             if tail is not None and len(tail[0]):

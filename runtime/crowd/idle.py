@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..motion.cylinders import blend_cylinders
 from ..motion.planar import compose
 from .planner.library import MotionLibrary
 from .planner.types import Config
 from .tracks import Track
 
-__all__ = ["IDLE_LABELS", "idle_loops", "idle_loop", "track_radius", "idle_track", "still_nodes", "hold_tail",
+__all__ = ["IDLE_LABELS", "idle_loops", "idle_loop", "track_cylinders", "idle_track", "still_nodes", "hold_tail",
            "idle_for"]
 
 IDLE_LABELS = frozenset({"idle", "stand", "sit", "carry_idle"})   # frame labels of motion that stays put
@@ -46,10 +47,10 @@ def idle_loop(g, node: int) -> int:
     return e
 
 
-def track_radius(graph, track: Track) -> np.ndarray:
-    """Per frame of ``track``, its bounding cylinder's radius (the larger of the two library
-    frames it blends)."""
-    return np.maximum(graph.frame_radius[track.frames_a], graph.frame_radius[track.frames_b])
+def track_cylinders(graph, track: Track) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame of ``track``, its bounding cylinder: axis position (F, 2) and radius (F,) (the
+    circle holding the cylinders of the two library frames it blends)."""
+    return blend_cylinders(graph, track.frames_a, track.frames_b, track.root)
 
 
 def idle_track(lib: MotionLibrary, cfg: Config, n_frames: int, turn: bool = False) -> Track:
@@ -115,8 +116,8 @@ def hold_tail(lib, graph, end: Config, n_total: int):
         return None
     tr = idle_track(lib, end, n)
     frames = end.frame + np.arange(1, n)
-    rad = track_radius(graph, tr)[1:]
-    return frames, tr.root[1:, :2], rad
+    xz, rad = track_cylinders(graph, tr)
+    return frames, xz[1:], rad[1:]
 
 
 def idle_for(lib, graph, cfg: Config, seconds: float, fps: float) -> Track:

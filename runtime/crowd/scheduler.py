@@ -12,10 +12,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..motion.cylinders import enclosing_circles
 from ..motion.graph import STATES
 from .clearance import Clearance
 from .goals import plan_goals
-from .idle import still_nodes, track_radius
+from .idle import still_nodes, track_cylinders
 from .planner import CrowdPolicy, MotionCache, MotionLibrary, SearchParams
 from .priorities import character_legs
 from .scenario import Scenario, ScenarioError, planning_order
@@ -105,7 +106,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     t_all = time.perf_counter()
     passes = max(1, int(sc.synthesis.get("passes", policy.passes)))
     ctx = PlanContext(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static,
-                      Reservations(max(1.2, 2 * lib.max_radius + 2 * (params.margin + params.seed_margin) + 0.05),
+                      Reservations(max(1.2, 2 * lib.max_reach + 2 * (params.margin + params.seed_margin) + 0.05),
                                    n_total, len(sc.characters)),
                       still_nodes(graph, params.eps, fps), log,
                       MotionCache() if policy.reuse_motions else None)
@@ -195,8 +196,8 @@ class PlanContext:
     cache: MotionCache | None = None
 
     def cylinders(self, track):
-        rad = track_radius(self.graph, track)
-        return np.arange(len(track)), track.root[:, :2], rad
+        xz, rad = track_cylinders(self.graph, track)
+        return np.arange(len(track)), xz, rad
 
     def insert(self, ci, track):
         self.index.insert(ci, *self.cylinders(track))
@@ -335,23 +336,24 @@ def seat_hold(c, graph, fps: float, standing: bool = False) -> int:
     return max(0, int((c.goals[0].time[0] - d / HOLD_SPEED - get_up) * fps))
 
 
-def start_hold(ctx: PlanContext, c) -> tuple[int, float]:
-    """(frames from 0, radius) for which character ``c``'s start is held in the index until it
+def start_hold(ctx: PlanContext, c) -> tuple[int, np.ndarray, float]:
+    """(frames from 0, disc centre (2,), radius) for which character ``c``'s start is held in the index until it
     is planned (``CrowdPolicy.reserve_starts``): characters planned before it then treat it as
     standing (or sitting) there. "none": only a seated start, while it has no need to leave
     (:func:`seat_hold`); "needed": any start, while it has no need to leave yet (a brisk
     straight walk still reaches its first goal before the window opens; 0 for an untimed first
     goal); "all": any start, for the whole scenario -- the revised prioritized planning of Čáp,
     Novák, Kleiner and Selecký (2015), which guarantees that standing at its start stays clear
-    of everyone planned before it."""
+    of everyone planned before it. The disc holds the idle (or seated) cylinders at the start's
+    heading (:func:`held_disc`)."""
     mode = ctx.policy.reserve_starts
     seated = c.start_marker is not None
-    radius = seated_radius(ctx.graph) if seated else standing_radius(ctx.graph, ctx.still)
+    xz, radius = held_disc(ctx.graph, ctx.still, "sit" if seated else "stand", c.position, c.heading)
     if mode == "all":
-        return ctx.n_total, radius
+        return ctx.n_total, xz, radius
     if mode == "needed" or seated:
-        return min(seat_hold(c, ctx.graph, ctx.fps, standing=not seated), ctx.n_total), radius
-    return 0, radius
+        return min(seat_hold(c, ctx.graph, ctx.fps, standing=not seated), ctx.n_total), xz, radius
+    return 0, xz, radius
 
 
 def hold_goal(ctx: PlanContext, ci: int) -> None:
@@ -366,8 +368,8 @@ def hold_goal(ctx: PlanContext, ci: int) -> None:
     f0 = int(np.floor(g.time[0] * ctx.fps))
     if f0 >= ctx.n_total:
         return
-    radius = seated_radius(ctx.graph) if g.kind == "seat" else standing_radius(ctx.graph, ctx.still)
-    ctx.index.hold(ci, np.asarray(g.position, float), radius, ctx.n_total, start=f0, kind="goal")
+    xz, radius = held_disc(ctx.graph, ctx.still, "sit" if g.kind == "seat" else "stand", g.position, g.heading)
+    ctx.index.hold(ci, xz, radius, ctx.n_total, start=f0, kind="goal")
 
 
 def goal_holds(ctx: PlanContext, ci: int, holds) -> list:
@@ -407,26 +409,68 @@ class HeldStarts:
         if not goals or not self.live.any():
             return []
         goals = np.asarray(goals, float)
-        reach = ctx.lib.max_radius + ctx.params.margin
+        reach = ctx.lib.max_reach + ctx.params.margin
         xz, radius = self.xz[self.live], self.radius[self.live]
         d = np.hypot(xz[:, None, 0] - goals[None, :, 0], xz[:, None, 1] - goals[None, :, 1]).min(axis=1)
         return self.owners[self.live][d < reach + radius].tolist()
 
 
 def standing_radius(graph, still) -> float:
-    """The bounding cylinder of a character standing at its start: the largest radius of the
-    idle clips of the "stand" nodes where one can stand still."""
+    """The disc a character standing at its start holds: the largest reach (the circle about
+    the root holding the bounding cylinder, whatever the heading) of the idle clips of the
+    "stand" nodes where one can stand still."""
+    loops = _idle_loops(graph, still)
+    return float(graph.edge_reach[loops].max()) if len(loops) else float(graph.edge_reach.max())
+
+
+def held_disc(graph, still, pose: str, position, heading) -> tuple[np.ndarray, float]:
+    """The disc held for a character standing (``pose`` "stand") or seated ("sit") at
+    ``position`` (x, z) facing ``heading`` (radians; None: any heading): the circle holding the
+    bounding cylinders of every frame of the idle clips (seated: the sitting state's clips) as
+    they play from there, or the disc about ``position`` of :func:`standing_radius` /
+    :func:`seated_radius` (any heading) when that is smaller or no heading is given. Returns
+    (centre (2,), radius)."""
+    pos = np.asarray(position, dtype=np.float64)
+    about = seated_radius(graph) if pose == "sit" else standing_radius(graph, still)
+    if heading is None:
+        return pos, about
+    axis, radius = _held_cylinder(graph, still, pose)
+    if radius >= about:
+        return pos, about
+    ch, sh = np.cos(heading), np.sin(heading)
+    return pos + np.array([ch * axis[0] + sh * axis[1], -sh * axis[0] + ch * axis[1]]), radius
+
+
+def _held_cylinder(graph, still, pose: str):
+    """(axis (2,) from the start configuration, radius) holding the cylinders of every frame
+    of the clips :func:`held_disc` holds, as placed from the clip's start (memoized per graph)."""
+    key = (pose, None if still is None else np.flatnonzero(still).tobytes())
+    memo = graph.__dict__.setdefault("_held_cylinder_memo", {})
+    if key not in memo:
+        if pose == "sit":
+            edges = np.flatnonzero(graph.edge_state == STATES.index("sitting"))
+        else:
+            edges = _idle_loops(graph, still)
+        if not len(edges):
+            edges = np.arange(graph.num_edges)
+        frames = np.concatenate([np.arange(graph.edge_start[e], graph.edge_start[e + 1]) for e in edges])
+        cxz, r = graph.frame_cxz[frames], graph.frame_radius[frames].astype(np.float64)
+        centre, _ = enclosing_circles(cxz)
+        memo[key] = (centre, float(np.max(np.hypot(*(cxz - centre).T) + r)))
+    return memo[key]
+
+
+def _idle_loops(graph, still) -> np.ndarray:
     nodes = graph.nodes_with_label("stand")
     nodes = nodes[still[nodes]] if still is not None and still[nodes].any() else nodes
-    loops = np.flatnonzero(np.isin(graph.edge_src, nodes) & (graph.edge_src == graph.edge_dst))
-    return float(graph.edge_radius[loops].max()) if len(loops) else float(graph.edge_radius.max())
+    return np.flatnonzero(np.isin(graph.edge_src, nodes) & (graph.edge_src == graph.edge_dst))
 
 
 def seated_radius(graph) -> float:
-    """The bounding cylinder of a seated character: the largest radius of the sitting state's
+    """The disc a seated character holds: the largest reach (about the root) of the sitting state's
     clips (a held seat's cylinder)."""
     sit = graph.edge_state == STATES.index("sitting")
-    return float(graph.edge_radius[sit].max()) if sit.any() else float(graph.edge_radius.max())
+    return float(graph.edge_reach[sit].max()) if sit.any() else float(graph.edge_reach.max())
 
 
 def time_to_wait(c, policy: CrowdPolicy) -> bool:
@@ -701,9 +745,9 @@ def hold_starts(ctx: PlanContext, owners) -> dict:
     holds = {}
     for o in owners:
         c = ctx.sc.characters[o]
-        until, radius = start_hold(ctx, c)
+        until, xz, radius = start_hold(ctx, c)
         if until:
-            holds[o] = (np.asarray(c.position, float), radius, until)
+            holds[o] = (xz, radius, until)
             ctx.index.hold(o, *holds[o])
     return holds
 

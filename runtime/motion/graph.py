@@ -7,12 +7,12 @@ indexed through ``edge_start``, so synthesis gathers frames of many edges in one
 Per-edge tables the synthesis needs are precomputed:
 ``edge_duration`` (s), ``edge_disp`` (dx, dz, dheading: the planar rigid transform the edge
 applies, in its start frame), the per-frame root path (``frame_xz``, ``frame_heading``
-relative to the edge start), per-frame bounding cylinder (``frame_radius`` about the root's
-vertical axis, ``frame_top``), per-frame foot contacts (``frame_contacts`` (T, 4) bool, columns
+relative to the edge start), per-frame minimum bounding cylinder (``frame_axis``: its axis from the root in the root's
+heading frame, ``frame_radius``, ``frame_top``; :mod:`runtime.motion.cylinders`), per-frame foot contacts (``frame_contacts`` (T, 4) bool, columns
 :data:`~runtime.motion.contacts.CONTACT_POINTS`), and labels.
 
-Pack: kind ``"motion_graph"``, version :data:`PACK_VERSION` (version 2 added the contacts; an
-older pack is refused with a message saying to rebuild it).
+Pack: kind ``"motion_graph"``, version :data:`PACK_VERSION` (version 2 added the contacts,
+version 3 the cylinders' axes; an older pack is refused with a message saying to rebuild it).
 """
 from __future__ import annotations
 
@@ -23,27 +23,15 @@ import numpy as np
 from ..assets import AssetError, pack_fields, save_pack
 from .clip import Clip
 from .contacts import contact_summary, contacts_of
-from .fk import end_site_positions, forward_kinematics
+from .cylinders import pose_cylinders
 from .skeleton import Skeleton, load_motion_pack
 
-__all__ = ["MotionGraph", "PACK_KIND", "PACK_VERSION", "STATES", "edge_tables"]
+__all__ = ["MotionGraph", "PACK_KIND", "PACK_VERSION", "STATES"]
 
 PACK_KIND = "motion_graph"
-PACK_VERSION = 2
+PACK_VERSION = 3
 STATES = ("walking", "carrying", "sitting")
 TRANSITION = -1  # edge_state of edges that change state
-
-
-def edge_tables(clip: Clip):
-    """Per-frame bounding cylinder of a clip in its local frame: radius about the root's
-    vertical axis (joints and end sites) and top height. Returns (radius (F,), top (F,))."""
-    pos, rot = clip.world_root(origin=np.zeros(3))
-    gr, gp = forward_kinematics(clip.skeleton, pos, clip.local_rotations_world_root(np.zeros(3)))
-    ends = end_site_positions(clip.skeleton, gr, gp)
-    pts = np.concatenate([gp, ends], axis=1)
-    d = pts[..., [0, 2]] - pos[:, None, [0, 2]]
-    radius = np.sqrt(np.max(np.sum(d * d, axis=-1), axis=1))
-    return radius, pts[..., 1].max(axis=1)
 
 
 @dataclass
@@ -66,6 +54,8 @@ class MotionGraph:
     frame_radius: np.ndarray        # (T,) float32
     frame_top: np.ndarray           # (T,) float32
     frame_contacts: np.ndarray | None = None   # (T, 4) bool, CONTACT_POINTS order
+    frame_axis: np.ndarray | None = None       # (T, 2) float32 cylinder axis from the root (root frame)
+    frame_reach: np.ndarray | None = None      # (T,) float32 radius about the root's axis
     meta: dict = field(default_factory=dict)
     path: str | None = None
 
@@ -73,11 +63,22 @@ class MotionGraph:
         if self.frame_contacts is None:
             self.frame_contacts = np.zeros((len(self.frame_heading), 4), dtype=bool)
         self.frame_contacts = np.asarray(self.frame_contacts, dtype=bool)
+        if self.frame_axis is None:
+            self.frame_axis = np.zeros((len(self.frame_heading), 2), dtype=np.float32)
+        # the cylinders' axes in the edge-start frame, as frame_xz: where a placed clip's
+        # collision samples stand
+        ax = self.frame_axis.astype(np.float64)
+        ch, sh = np.cos(self.frame_heading), np.sin(self.frame_heading)
+        self.frame_cxz = np.stack([self.frame_xz[:, 0] + ch * ax[:, 0] + sh * ax[:, 1],
+                                   self.frame_xz[:, 1] - sh * ax[:, 0] + ch * ax[:, 1]], axis=1)
         self.edge_frames = np.diff(self.edge_start)
         self.edge_duration = (self.edge_frames - 1) / self.fps
         last = self.edge_start[1:] - 1
         self.edge_disp = np.stack([self.frame_xz[last, 0], self.frame_xz[last, 1], self.frame_heading[last]], axis=1)
         self.edge_radius = np.maximum.reduceat(self.frame_radius, self.edge_start[:-1]) if len(self.edge_src) else np.zeros(0)
+        if self.frame_reach is None:     # the circle about the root holding the cylinder
+            self.frame_reach = (np.hypot(ax[:, 0], ax[:, 1]) + self.frame_radius).astype(np.float32)
+        self.edge_reach = np.maximum.reduceat(self.frame_reach, self.edge_start[:-1]) if len(self.edge_src) else np.zeros(0)
         # parallel edges: same (src, dst)
         key = self.edge_src * max(1, self.num_nodes) + self.edge_dst
         _, self.edge_pair, counts = np.unique(key, return_inverse=True, return_counts=True)
@@ -150,13 +151,18 @@ class MotionGraph:
     # -- construction --------------------------------------------------------------------------
     @classmethod
     def from_clips(cls, skeleton, fps, node_rotations, node_height, node_state, node_labels,
-                   edge_src, edge_dst, edge_state, edge_labels, clips, meta=None, radius=None) -> "MotionGraph":
-        """``radius``: per clip its frames' collision radius when not the clips' own bounding
-        cylinders (:func:`edge_tables`), e.g. a build that corrects feet after snapping keeps
-        the snapped body's."""
+                   edge_src, edge_dst, edge_state, edge_labels, clips, meta=None, cylinders=None) -> "MotionGraph":
+        """``cylinders``: per clip its frames' collision cylinders (axis (F, 2), radius (F,), reach (F,)) when
+        not the clips' own minimum bounding cylinders (:func:`~runtime.motion.cylinders.pose_cylinders`),
+        e.g. a build that corrects feet after snapping keeps both bodies inside."""
         starts = np.concatenate([[0], np.cumsum([c.num_frames for c in clips])]).astype(np.int64)
-        own, top = zip(*(edge_tables(c) for c in clips)) if clips else ((), ())
-        radius = own if radius is None else radius
+        own = [pose_cylinders(c) for c in clips]
+        top = [o[3] for o in own]
+        cylinders = [o[:3] for o in own] if cylinders is None else cylinders
+        axis = [np.asarray(c[0], dtype=np.float64).reshape(-1, 2) for c in cylinders]
+        # stored as float32: pad the radii so rounding never leaves a point outside
+        radius = [np.asarray(c[1], dtype=np.float64) + 1e-5 for c in cylinders]
+        reach = [np.asarray(c[2], dtype=np.float64) + 1e-5 for c in cylinders]
         contacts = [contacts_of(c) for c in clips]
         return cls(
             skeleton=skeleton, fps=float(fps),
@@ -173,12 +179,14 @@ class MotionGraph:
             frame_radius=np.concatenate(radius).astype(np.float32),
             frame_top=np.concatenate(top).astype(np.float32),
             frame_contacts=np.concatenate(contacts).astype(bool),
+            frame_axis=(np.concatenate(axis) if axis else np.zeros((0, 2))).astype(np.float32),
+            frame_reach=np.concatenate(reach).astype(np.float32),
             meta=dict(meta or {}))
 
     # -- packs ----------------------------------------------------------------------------------
     _ARRAYS = ("node_rotations", "node_height", "node_state", "edge_src", "edge_dst", "edge_state",
                "edge_start", "frame_rotations", "frame_xz", "frame_heading", "frame_height",
-               "frame_radius", "frame_top", "frame_contacts")
+               "frame_radius", "frame_top", "frame_contacts", "frame_axis", "frame_reach")
 
     def save(self, path) -> None:
         meta = dict(self.meta)
@@ -211,6 +219,8 @@ class MotionGraph:
             problems.append("edge_start offsets invalid")
         if self.frame_rotations.shape != (T, J, 4) or len(self.frame_xz) != T:
             problems.append("frame arrays have inconsistent lengths")
+        if self.frame_axis.shape != (T, 2) or len(self.frame_radius) != T or len(self.frame_reach) != T:
+            problems.append(f"frame_axis shape {self.frame_axis.shape}")
         if self.frame_contacts.shape != (T, 4):
             problems.append(f"frame_contacts shape {self.frame_contacts.shape}")
         if len(self.node_labels) != N or len(self.edge_labels) != E:

@@ -32,6 +32,7 @@ from ..crowd.planner import (Config, CrowdPolicy, Goal, MotionCache, MotionLibra
 from ..crowd.scenario import BOX_REACH
 from ..crowd.spacetime import SpaceTimeIndex
 from ..crowd.tracks import Track
+from ..motion.cylinders import blend_cylinders
 from . import args
 from .occupancy import Occupancy, PlanningView
 from .planning import PlanningQueue
@@ -121,7 +122,7 @@ class CrowdSystem:
         # motions found for one character's task, tried first for the next with the same task
         self.motion_cache = MotionCache() if self.policy.reuse_motions else None
         p = self.params
-        index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_radius + 2 * (p.margin + p.seed_margin) + 0.1))
+        index = SpaceTimeIndex(cell=max(1.2, 2 * self.lib.max_reach + 2 * (p.margin + p.seed_margin) + 0.1))
         self.playback = Playback(self.lib, world.fps, index, capacity)
         self.occupancy = Occupancy(self.playback, self.playback.stay_radii(p.margin))
         self.still = still_nodes(graph, p.eps, world.fps)
@@ -323,7 +324,8 @@ class CrowdSystem:
         arrival window. Returns the new start frame or None."""
         s0 = c.job_handoff
         g = self.graph
-        rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + self.params.margin
+        xz, rad = blend_cylinders(g, res.frames_a, res.frames_b, res.root)
+        rad = rad + self.params.margin
         for f, cfg in self.playback.boundaries[c.slot]:
             if f <= self.world.frame or cfg.node != s0.node or abs(cfg.x - s0.x) > 1e-6 or abs(cfg.z - s0.z) > 1e-6 \
                     or abs((cfg.heading - s0.heading + math.pi) % (2 * math.pi) - math.pi) > 1e-6:
@@ -333,7 +335,7 @@ class CrowdSystem:
             if win is not None and not (win[0] - 1e-9 <= (res.end.frame + dt) / self.world.fps <= win[1] + 1e-9):
                 return None
             frames = f + np.arange(len(res.root))
-            if not self.occupancy.collide(frames, res.root[:, :2], rad, c.slot).any():
+            if not self.occupancy.collide(frames, xz, rad, c.slot).any():
                 return f
             tries -= 1
             if tries <= 0:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..motion.cylinders import blend_cylinders
+
 STANDING_STATES = ("idle", "queued")   # CharacterState values of characters who stand until planned
 
 __all__ = ["IdleStretches", "Occupancy", "PlanningView"]
@@ -214,10 +216,9 @@ class PlanningView:
         s = np.flatnonzero(pb.active)
         s = s[s != self.owner]
         f = np.minimum(frame, pb.tail[s])
-        xz = pb.buf_root[s, f % pb.size, :2]
-        g = self.graph
         k = f % pb.size
-        r = np.maximum(g.frame_radius[pb.buf_a[s, k]], g.frame_radius[pb.buf_b[s, k]]).astype(np.float64)
+        xz, r = blend_cylinders(self.graph, pb.buf_a[s, k], pb.buf_b[s, k], pb.buf_root[s, k])
         beyond = frame > pb.tail[s]
+        xz[beyond] = pb.buf_root[s[beyond], k[beyond], :2]
         r[beyond] = self.crowd.occupancy.stay_r[pb.tail_node[s[beyond]]]
         return xz, r

@@ -22,6 +22,7 @@ from ..crowd.idle import idle_loop, idle_track
 from ..crowd.planner import Config, MotionLibrary
 from ..crowd.spacetime import SpaceTimeIndex
 from ..crowd.tracks import Track
+from ..motion.cylinders import blend_cylinders
 from ..motion.planar import compose
 from .occupancy import IdleStretches
 
@@ -159,8 +160,8 @@ class Playback:
         if len(frames) == 0:
             return
         k = frames % MAX_BUFFER
-        rad = np.maximum(self.graph.frame_radius[self.buf_a[s, k]], self.graph.frame_radius[self.buf_b[s, k]])
-        self.index.insert(s, frames, self.buf_root[s, k, :2], rad)
+        xz, rad = blend_cylinders(self.graph, self.buf_a[s, k], self.buf_b[s, k], self.buf_root[s, k])
+        self.index.insert(s, frames, xz, rad)
 
     def config_at_tail(self, s: int) -> Config:
         r = self.buf_root[s, self.tail[s] % MAX_BUFFER]
@@ -199,14 +200,14 @@ class Playback:
         return self._loop_cache[node]
 
     def stay_radii(self, margin: float) -> np.ndarray:
-        """Per node: the largest bounding radius while idling on it (its idle loop's frames, or
-        the node's pose when it has none), plus how far the idle loop's root strays from the
+        """Per node: the largest reach while idling on it (the circle about the root holding the
+        bounding cylinder, over its idle loop's frames, or the node's pose when it has none), plus how far the idle loop's root strays from the
         node's spot, plus ``margin``."""
         g = self.graph
         r = np.zeros(g.num_nodes)
         for n in range(g.num_nodes):
             tr = self.idle(Config(n, 0.0, 0.0, 0.0, 0), max(self.loop_len(n), 1) + 1)
-            r[n] = (max(g.frame_radius[tr.frames_a].max(), g.frame_radius[tr.frames_b].max())
+            r[n] = (max(g.frame_reach[tr.frames_a].max(), g.frame_reach[tr.frames_b].max())
                     + np.hypot(tr.root[:, 0], tr.root[:, 1]).max())
         return r + margin
 

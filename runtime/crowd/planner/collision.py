@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...motion.cylinders import blend_cylinders
 from ...motion.planar import compose
 from . import kernels
 from .library import MotionLibrary
@@ -84,7 +85,7 @@ class Collider:
             which = np.repeat(np.arange(n), cnt)
             sidx = lib.samp_ptr[edges][which] + (np.arange(int(cnt.sum())) - (np.cumsum(cnt) - cnt)[which])
             gf = lib.samp_frame[sidx]
-            local = np.stack([g.frame_xz[gf, 0], g.frame_xz[gf, 1], g.frame_heading[gf]], axis=1)
+            local = np.stack([g.frame_cxz[gf, 0], g.frame_cxz[gf, 1], g.frame_heading[gf]], axis=1)
             xz = compose(np.asarray(cfg, dtype=np.float64)[None], local)[:, :2]
             rad = g.frame_radius[gf].astype(np.float64) + self.p.margin
             frames = frames0[which] + lib.samp_off[sidx]
@@ -121,8 +122,8 @@ class Collider:
         ends after :attr:`deadline`, or standing at its end afterwards (:attr:`hold`) would be
         in someone's way."""
         g, p = self.lib.g, self.p
-        rad = np.maximum(g.frame_radius[res.frames_a], g.frame_radius[res.frames_b]).astype(np.float64) + p.margin
-        hit = self.first_hit(res.start_frame + np.arange(len(res.root)), res.root[:, :2], rad)
+        xz, rad = blend_cylinders(g, res.frames_a, res.frames_b, res.root)
+        hit = self.first_hit(res.start_frame + np.arange(len(res.root)), xz, rad + p.margin)
         if hit >= 0:
             return hit
         if self.deadline is not None and res.start_frame + len(res.root) - 1 > self.deadline:

@@ -154,7 +154,7 @@ def pairs_static_clear(lib: MotionLibrary, static, margin: float, F, B, i, j, st
     first = np.concatenate([[0], np.cumsum(cnt)[:-1]])
     sidx = lib.samp_ptr[e][which] + (np.arange(int(cnt.sum())) - np.repeat(first, cnt))
     gf = lib.samp_frame[sidx]
-    local = np.stack([g.frame_xz[gf, 0], g.frame_xz[gf, 1], g.frame_heading[gf]], axis=1)
+    local = np.stack([g.frame_cxz[gf, 0], g.frame_cxz[gf, 1], g.frame_heading[gf]], axis=1)
     world = compose(base[which], local)
     bad = static(world[:, :2]) < g.frame_radius[gf].astype(np.float64) + margin - slack
     return np.bincount(row[which], weights=bad, minlength=P) == 0

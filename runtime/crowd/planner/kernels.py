@@ -273,7 +273,7 @@ def edge_samples(lib, edges, cfg, frames0, margin):
     frames = np.empty(S, np.int64)
     g = lib.g
     _edge_samples(edges, np.asarray(cfg, np.float64), np.asarray(frames0, np.int64), lib.samp_ptr, lib.samp_frame,
-                  lib.samp_off, g.frame_xz, g.frame_heading, g.frame_radius, float(margin), xz, rad, frames)
+                  lib.samp_off, g.frame_cxz, g.frame_heading, g.frame_radius, float(margin), xz, rad, frames)
     return xz, rad, frames, cnt
 
 
@@ -426,7 +426,7 @@ def _parts_clear(lib, grid_args, need, rows, cut, cfg0, forward, memo):
         far = np.inf        # a sample outside the grid might fail: test every sample
     memo.count += _parts_static_clear(np.ascontiguousarray(rows, np.int64), np.ascontiguousarray(cut, np.int64),
                                       forward, np.asarray(cfg0, np.float64), lib.disp, lib.samp_ptr,
-                                      lib.samp_frame, g.frame_xz, g.frame_heading, g.frame_radius, need, ox, oz,
+                                      lib.samp_frame, g.frame_cxz, g.frame_heading, g.frame_radius, need, ox, oz,
                                       res, values, gmargin, offset, lib.samp_reach, far, memo.keys, memo.vals, out)
     return out
 

@@ -48,7 +48,7 @@ class MotionLibrary:
         self.samp_off = self.samp_frame - g.edge_start[self.samp_edge]
         # per clip: how far its collision samples reach from its start, cylinder included (a clip
         # that starts farther than that from every obstacle clears them all)
-        reach = (np.hypot(g.frame_xz[self.samp_frame, 0], g.frame_xz[self.samp_frame, 1])
+        reach = (np.hypot(g.frame_cxz[self.samp_frame, 0], g.frame_cxz[self.samp_frame, 1])
                  + g.frame_radius[self.samp_frame].astype(np.float64))
         self.samp_reach = np.zeros(E)
         np.maximum.at(self.samp_reach, self.samp_edge, reach)
@@ -74,6 +74,7 @@ class MotionLibrary:
         # adjacency for fewest-edge paths
         self.adj = csr_matrix((np.ones(E), (g.edge_src, g.edge_dst)), shape=(N, N))
         self.max_radius = float(g.frame_radius.max()) if len(g.frame_radius) else 0.5
+        self.max_reach = float(g.frame_reach.max()) if len(g.frame_reach) else 0.5    # about the root
         self._lookahead = {}
         self._endings = {}
 

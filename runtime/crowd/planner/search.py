@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...motion.cylinders import blend_cylinders
 from ...motion.planar import compose, compose1, compose_inverse, wrap_angle
 from . import kernels
 from .collision import Collider
@@ -132,8 +133,8 @@ class RandomizedSearch:
         if static is None:
             return True
         g = self.lib.g
-        rad = max(float(g.frame_radius[res.frames_a[hit]]), float(g.frame_radius[res.frames_b[hit]])) + self.p.margin
-        return bool(static(res.root[hit:hit + 1, :2])[0] >= rad)
+        xz, rad = blend_cylinders(g, res.frames_a[hit:hit + 1], res.frames_b[hit:hit + 1], res.root[hit:hit + 1])
+        return bool(static(xz)[0] >= rad[0] + self.p.margin)
 
     def _retimed(self, res, Frow, i, Brow, j):
         """Generator: the same splice at the nearest other durations (time resampling within

@@ -140,7 +140,7 @@ class SegmentPlanner:
             return None
         xz, r = self.still(start.frame)
         if len(xz):
-            near = self.lib.max_radius + self.p.margin
+            near = self.lib.max_reach + self.p.margin
             keep = ((np.hypot(xz[:, 0] - start.x, xz[:, 1] - start.z) > r + near)
                     & (np.hypot(xz[:, 0] - goal.position[0], xz[:, 1] - goal.position[1]) > r + near))
             xz, r = xz[keep], r[keep]
