@@ -22,6 +22,11 @@ import numpy as np
 
 from .fk import end_site_positions, forward_kinematics
 
+try:        # optional, as in runtime.pose_kernels: one fused loop where numpy makes ~20 passes
+    import numba as _nb
+except Exception:  # pragma: no cover - numba missing or incompatible with this numpy
+    _nb = None
+
 __all__ = ["enclosing_circles", "pose_cylinders", "blend_cylinders", "SUPPORT"]
 
 SUPPORT = 6            # points tried as the circle's support (the farthest from the first guess)
@@ -116,23 +121,52 @@ def blend_cylinders(graph, frames_a, frames_b, root) -> tuple[np.ndarray, np.nda
     ``frames_b`` stand, with the root at ``root`` (..., 3) = (x, z, heading): the circle holding
     both frames' circles. Returns centres (..., 2) and radii (...)."""
     root = np.asarray(root, dtype=np.float64)
-    ra = graph.frame_radius[frames_a].astype(np.float64)
-    rb = graph.frame_radius[frames_b].astype(np.float64)
-    axis = getattr(graph, "frame_axis", None)
+    radius, axis = _tables(graph)
+    if _nb is not None and axis is not None and root.ndim == 2 and np.ndim(frames_a) == 1 and np.ndim(frames_b) == 1:
+        centre, r = np.empty((len(root), 2)), np.empty(len(root))
+        _blend_compiled(np.asarray(frames_a, np.int64), np.asarray(frames_b, np.int64), root, radius, axis, centre, r)
+        return centre, r
+    ra, rb = radius[frames_a], radius[frames_b]
     if axis is None:
         return root[..., :2].copy(), np.maximum(ra, rb)
-    ax = axis[frames_a].astype(np.float64)
-    bx = axis[frames_b].astype(np.float64)
-    ch, sh = np.cos(root[..., 2]), np.sin(root[..., 2])
-    ca = np.stack([root[..., 0] + ch * ax[..., 0] + sh * ax[..., 1], root[..., 1] - sh * ax[..., 0] + ch * ax[..., 1]], -1)
-    cb = np.stack([root[..., 0] + ch * bx[..., 0] + sh * bx[..., 1], root[..., 1] - sh * bx[..., 0] + ch * bx[..., 1]], -1)
-    d = np.hypot(*np.moveaxis(cb - ca, -1, 0))
-    # the smallest circle holding both: one holds the other, or it spans them on their line
+    ax, bx = axis[frames_a], axis[frames_b]
+    # in the root's frame (the circle holding two circles does not depend on the heading): the
+    # larger circle when it holds the other, else the one spanning both along their line
+    dx, dz = bx[..., 0] - ax[..., 0], bx[..., 1] - ax[..., 1]
+    d = np.sqrt(dx * dx + dz * dz)
     r = np.maximum(np.maximum(ra, rb), 0.5 * (d + ra + rb))
-    t = np.where(d > 1e-12, (r - ra) / np.where(d > 1e-12, d, 1.0), 0.0)
-    a_holds_b = ra >= d + rb
-    b_holds_a = rb >= d + ra
-    t = np.where(a_holds_b, 0.0, np.where(b_holds_a, 1.0, t))
-    r = np.where(a_holds_b, ra, np.where(b_holds_a, rb, r))
-    centre = ca + t[..., None] * (cb - ca)
+    t = np.clip((r - ra) / np.maximum(d, 1e-12), 0.0, 1.0)
+    lx, lz = ax[..., 0] + t * dx, ax[..., 1] + t * dz
+    ch, sh = np.cos(root[..., 2]), np.sin(root[..., 2])
+    centre = np.empty(root.shape[:-1] + (2,))
+    centre[..., 0] = root[..., 0] + ch * lx + sh * lz
+    centre[..., 1] = root[..., 1] - sh * lx + ch * lz
     return centre, r
+
+
+if _nb is not None:
+    @_nb.njit(cache=True, boundscheck=False, nogil=True)
+    def _blend_compiled(fa, fb, root, radius, axis, centre, out_r):  # pragma: no cover - compiled
+        for k in range(len(fa)):
+            ra, rb = radius[fa[k]], radius[fb[k]]
+            ax0, ax1 = axis[fa[k], 0], axis[fa[k], 1]
+            dx, dz = axis[fb[k], 0] - ax0, axis[fb[k], 1] - ax1
+            d = np.sqrt(dx * dx + dz * dz)
+            r = max(max(ra, rb), 0.5 * (d + ra + rb))
+            t = min(max((r - ra) / max(d, 1e-12), 0.0), 1.0)
+            lx, lz = ax0 + t * dx, ax1 + t * dz
+            ch, sh = np.cos(root[k, 2]), np.sin(root[k, 2])
+            centre[k, 0] = root[k, 0] + ch * lx + sh * lz
+            centre[k, 1] = root[k, 1] - sh * lx + ch * lz
+            out_r[k] = r
+
+
+def _tables(graph):
+    """The graph's radii and axes as float64 (made once per graph)."""
+    memo = graph.__dict__.get("_cylinder_tables")
+    if memo is None:
+        axis = getattr(graph, "frame_axis", None)
+        memo = (np.asarray(graph.frame_radius, dtype=np.float64),
+                None if axis is None else np.asarray(axis, dtype=np.float64))
+        graph.__dict__["_cylinder_tables"] = memo
+    return memo
