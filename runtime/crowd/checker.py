@@ -238,11 +238,11 @@ def _cylinders(graph, track, F):
     frame's circle placed by the root, and for a blend the circle holding both."""
     root = np.asarray(track.root[:F], dtype=np.float64)
     axis = getattr(graph, "frame_axis", None)
+    c, s = np.cos(root[:, 2]), np.sin(root[:, 2])
     circles = []
     for fr in (track.frames_a[:F], track.frames_b[:F]):
         r = graph.frame_radius[fr].astype(np.float64)
         off = np.zeros((F, 2)) if axis is None else axis[fr].astype(np.float64)
-        c, s = np.cos(root[:, 2]), np.sin(root[:, 2])
         circles.append((root[:, :2] + np.stack([c * off[:, 0] + s * off[:, 1], -s * off[:, 0] + c * off[:, 1]], 1), r))
     (pa, ra), (pb, rb) = circles
     d = np.linalg.norm(pb - pa, axis=1)

@@ -337,15 +337,15 @@ def seat_hold(c, graph, fps: float, standing: bool = False) -> int:
 
 
 def start_hold(ctx: PlanContext, c) -> tuple[int, np.ndarray, float]:
-    """(frames from 0, disc centre (2,), radius) for which character ``c``'s start is held in the index until it
-    is planned (``CrowdPolicy.reserve_starts``): characters planned before it then treat it as
-    standing (or sitting) there. "none": only a seated start, while it has no need to leave
-    (:func:`seat_hold`); "needed": any start, while it has no need to leave yet (a brisk
-    straight walk still reaches its first goal before the window opens; 0 for an untimed first
-    goal); "all": any start, for the whole scenario -- the revised prioritized planning of Čáp,
-    Novák, Kleiner and Selecký (2015), which guarantees that standing at its start stays clear
-    of everyone planned before it. The disc holds the idle (or seated) cylinders at the start's
-    heading (:func:`held_disc`)."""
+    """(frames from 0, disc centre (2,), radius) for which character ``c``'s start is held in
+    the index until it is planned (``CrowdPolicy.reserve_starts``): characters planned before
+    it then treat it as standing (or sitting) there. "none": only a seated start, while it has
+    no need to leave (:func:`seat_hold`); "needed": any start, while it has no need to leave yet
+    (a brisk straight walk still reaches its first goal before the window opens; 0 for an
+    untimed first goal); "all": any start, for the whole scenario -- the revised prioritized
+    planning of Čáp, Novák, Kleiner and Selecký (2015), which guarantees that standing at its
+    start stays clear of everyone planned before it. The disc holds the idle (or seated)
+    cylinders at the start's heading (:func:`held_disc`)."""
     mode = ctx.policy.reserve_starts
     seated = c.start_marker is not None
     xz, radius = held_disc(ctx.graph, ctx.still, "sit" if seated else "stand", c.position, c.heading)
