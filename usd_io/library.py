@@ -27,8 +27,9 @@ to play that clip alone); their root starts at the origin facing +Z, i.e. they h
 Space. In ``All`` each clip starts facing +Z (heading 0) at its own placement
 ``crowdweave:edgePlacement[e] = (x, z, heading=0)``, on a grid of cells: columns along +X,
 rows along +Z, ``columns`` per row (default ``ceil(sqrt(E))``; ``columns=E`` gives one row
-along +X). A cell is as wide and deep as the largest clip footprint (cylinder axes' path widened
-by the per-frame bounding radius, ``graph.frame_cxz`` and ``graph.frame_radius``) plus ``gap`` metres, and each clip's
+along +X). A cell is as wide and deep as the largest clip footprint (the cylinder axes' path
+widened by the per-frame bounding radius, ``graph.frame_cxz`` and ``graph.frame_radius``) plus
+``gap`` metres, and each clip's
 footprint is placed at its cell's corner, so no two clips overlap spatially.
 
 Graph attributes on ``/Library`` (arrays indexed by node or by edge):
@@ -110,7 +111,8 @@ def library_layout(graph, columns: int | None = None, gap: float = 1.0) -> np.nd
 
     Headings are 0 (every clip starts facing +Z). Footprints are the path of the clip's
     bounding cylinders at a zero origin (``graph.frame_cxz`` widened by ``graph.frame_radius``,
-    which bound every joint and end site), so placed footprints never overlap (see the module docstring).
+    which bound every joint and end site), so placed footprints never overlap (see the module
+    docstring).
     """
     E = graph.num_edges
     out = np.zeros((E, 3))

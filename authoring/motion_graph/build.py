@@ -146,14 +146,14 @@ def build_graph(takes: list[SourceClip], params: GraphBuildParams | None = None,
         if params.pin_feet:
             snapped = pin_feet(t.clip, snapped, contacts, local, flex_range=flex)
         # the collision cylinders hold the snapped body and the one with its feet corrected
-        axis, radius, reach, _ = pose_cylinders(snapped, also=body if params.pin_feet else None)
+        axis, radius, reach, top = pose_cylinders(snapped, also=body if params.pin_feet else None)
         own = take_slide(t.clip, contacts)
         for a, b, s, e, c in cut_edges(snapped, local, hk):
             v, added = added_slide(c, own[s:e])
             if 100.0 * added > params.max_foot_slide:
                 slid.append({"take": t.name, "start": s, "end": e, "added_cm_s": round(100.0 * added, 1)})
                 continue
-            edges.append((a, b, ti, s, e, c, (axis[s:e + 1], radius[s:e + 1], reach[s:e + 1])))
+            edges.append((a, b, ti, s, e, c, (axis[s:e + 1], radius[s:e + 1], reach[s:e + 1], top[s:e + 1])))
             slide.append(v)
     if slid:
         log(f"  {len(slid)} edge(s) dropped: planted feet slide over {params.max_foot_slide:g} cm/s faster than "

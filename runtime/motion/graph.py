@@ -7,9 +7,10 @@ indexed through ``edge_start``, so synthesis gathers frames of many edges in one
 Per-edge tables the synthesis needs are precomputed:
 ``edge_duration`` (s), ``edge_disp`` (dx, dz, dheading: the planar rigid transform the edge
 applies, in its start frame), the per-frame root path (``frame_xz``, ``frame_heading``
-relative to the edge start), per-frame minimum bounding cylinder (``frame_axis``: its axis from the root in the root's
-heading frame, ``frame_radius``, ``frame_top``; :mod:`runtime.motion.cylinders`), per-frame foot contacts (``frame_contacts`` (T, 4) bool, columns
-:data:`~runtime.motion.contacts.CONTACT_POINTS`), and labels.
+relative to the edge start), per-frame minimum bounding cylinder (``frame_axis``: its axis from
+the root in the root's heading frame, ``frame_radius``, ``frame_reach`` about the root,
+``frame_top``; :mod:`runtime.motion.cylinders`), per-frame foot contacts (``frame_contacts``
+(T, 4) bool, columns :data:`~runtime.motion.contacts.CONTACT_POINTS`), and labels.
 
 Pack: kind ``"motion_graph"``, version :data:`PACK_VERSION` (version 2 added the contacts,
 version 3 the cylinders' axes; an older pack is refused with a message saying to rebuild it).
@@ -152,13 +153,14 @@ class MotionGraph:
     @classmethod
     def from_clips(cls, skeleton, fps, node_rotations, node_height, node_state, node_labels,
                    edge_src, edge_dst, edge_state, edge_labels, clips, meta=None, cylinders=None) -> "MotionGraph":
-        """``cylinders``: per clip its frames' collision cylinders (axis (F, 2), radius (F,), reach (F,)) when
-        not the clips' own minimum bounding cylinders (:func:`~runtime.motion.cylinders.pose_cylinders`),
-        e.g. a build that corrects feet after snapping keeps both bodies inside."""
+        """``cylinders``: per clip its frames' collision cylinders (axis (F, 2), radius (F,), reach
+        (F,), top (F,)) when not the clips' own minimum bounding cylinders
+        (:func:`~runtime.motion.cylinders.pose_cylinders`), e.g. a build that corrects feet after
+        snapping keeps both bodies inside."""
         starts = np.concatenate([[0], np.cumsum([c.num_frames for c in clips])]).astype(np.int64)
-        own = [pose_cylinders(c) for c in clips]
-        top = [o[3] for o in own]
-        cylinders = [o[:3] for o in own] if cylinders is None else cylinders
+        if cylinders is None:
+            cylinders = [pose_cylinders(c) for c in clips]
+        top = [c[3] for c in cylinders]
         axis = [np.asarray(c[0], dtype=np.float64).reshape(-1, 2) for c in cylinders]
         # stored as float32: pad the radii so rounding never leaves a point outside
         radius = [np.asarray(c[1], dtype=np.float64) + 1e-5 for c in cylinders]
@@ -220,7 +222,8 @@ class MotionGraph:
         if self.frame_rotations.shape != (T, J, 4) or len(self.frame_xz) != T:
             problems.append("frame arrays have inconsistent lengths")
         if self.frame_axis.shape != (T, 2) or len(self.frame_radius) != T or len(self.frame_reach) != T:
-            problems.append(f"frame_axis shape {self.frame_axis.shape}")
+            problems.append(f"cylinder arrays: frame_axis {self.frame_axis.shape}, frame_radius "
+                            f"{len(self.frame_radius)}, frame_reach {len(self.frame_reach)} for {T} frames")
         if self.frame_contacts.shape != (T, 4):
             problems.append(f"frame_contacts shape {self.frame_contacts.shape}")
         if len(self.node_labels) != N or len(self.edge_labels) != E:

@@ -201,7 +201,8 @@ class Playback:
 
     def stay_radii(self, margin: float) -> np.ndarray:
         """Per node: the largest reach while idling on it (the circle about the root holding the
-        bounding cylinder, over its idle loop's frames, or the node's pose when it has none), plus how far the idle loop's root strays from the
+        bounding cylinder, over its idle loop's frames, or the node's pose when it has none),
+        plus how far the idle loop's root strays from the
         node's spot, plus ``margin``."""
         g = self.graph
         r = np.zeros(g.num_nodes)
