@@ -43,3 +43,20 @@ def test_only_a_character_met_on_the_way_is_worth_other_durations(default_graph)
     assert search._timing_may_help(beside, hit)
     # ending in the way (past the deadline, or standing at the goal afterwards)
     assert not search._timing_may_help(beside, len(beside.root))
+
+
+def test_a_window_of_frames_hit_is_a_final_test_hit(default_graph):
+    """``Collider.hits_between`` tests part of what the final test does: a hit in the window is a
+    hit of the whole motion, and a window before the first hit is clear."""
+    env = Environment([[[1.0, 1.0], [3.0, 1.0], [3.0, 4.0], [1.0, 4.0]]], [])
+    sdf = env.sdf(resolution=0.05, margin=2.0)
+    planner = SegmentPlanner(MotionLibrary(default_graph), static=Clearance(sdf, sdf.max_error))
+    line = _line(2.5)                      # into the box x 1..3 about a third of the way
+    hit = planner.final_collision(line)
+    assert hit is not None and 5 < hit < len(line.root) - 5
+    col = planner.collider
+    assert col.hits_between(line, hit - 2, hit + 3)
+    assert col.hits_between(line, hit, hit + 1)
+    assert not col.hits_between(line, 0, hit)
+    assert not col.hits_between(line, hit + 100, hit + 110)   # beyond the motion: nothing to test
+    assert planner.final_collision(_line(6.0)) is None and not col.hits_between(_line(6.0), 0, 60)

@@ -116,6 +116,15 @@ class Collider:
             first = k if k >= 0 else first
         return first if first < len(xz) else -1
 
+    def hits_between(self, res: SegmentResult, lo: int, hi: int) -> bool:
+        """Whether an output frame of ``res`` in ``[lo, hi)`` hits an obstacle or a planned
+        character: part of :meth:`final_collision`'s test, so True means it returns a hit."""
+        lo, hi = max(int(lo), 0), min(int(hi), len(res.root))
+        if hi <= lo:
+            return False
+        xz, rad = blend_cylinders(self.lib.g, res.frames_a[lo:hi], res.frames_b[lo:hi], res.root[lo:hi])
+        return self.first_hit(res.start_frame + np.arange(lo, hi), xz, rad + self.p.margin) >= 0
+
     def final_collision(self, res: SegmentResult):
         """First output frame whose bounding cylinder hits an obstacle or a planned character,
         or None (the final test of section 3.3); ``len(res.root)`` when the motion is clear but
