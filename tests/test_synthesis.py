@@ -697,9 +697,12 @@ def test_repair_displaces_a_blocker_and_keeps_it_only_if_all_come_out_clean(monk
 
 
 def test_repair_puts_everything_back_when_a_blocker_fails(monkeypatch):
-    """Same, but a cannot be planned clean around c: a's and c's old plans stay, in the index too."""
+    """Same, but a cannot be planned clean around c, and would be worse off than c was (two
+    warnings against one), so it cannot take the failure over either: a's and c's old plans stay,
+    in the index too."""
     sched, ctx, results, made = _repair_setup(monkeypatch, {
-        (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5, ["a fails"])})
+        (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5, ["a fails", "a is late"])})
+    assert ctx.policy.hand_over
     old = dict(results)
     sched.repair(ctx, results, [2], 1)
     assert results[0] is old[0] and results[1] is old[1]
@@ -707,6 +710,24 @@ def test_repair_puts_everything_back_when_a_blocker_fails(monkeypatch):
     assert results[2].seconds == 4.0          # its old plan and three tries (one of them a's)
     probe = lambda x: ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.05]))
     assert 0 in probe(0.0) and not probe(2.5) and set(probe(5.0)) == {1}
+
+
+def test_a_blocker_may_take_the_failure_over_once_and_then_not_displace_who_gave_it(monkeypatch):
+    """With ``hand_over``, the same repair keeps c's clean plan and a's failing one (no worse than
+    c's was): a takes the failure over. Repaired in the next pass, a fails in place again (on c)
+    but may not displace c, who handed it the failure: c's plan stays."""
+    sched, ctx, results, made = _repair_setup(monkeypatch, {
+        (2, 1): ("c", 0.1, ["still on a"]), (2, 2): ("c", 0.0), (0, 3): ("a", 2.5, ["a fails"]),
+        (0, 1): ("a", 0.0, ["a on c"])})
+    ctx.policy.hand_over = True
+    sched.repair(ctx, results, [2], 1)
+    assert results[2] is made[(2, 2)] and results[0] is made[(0, 3)]
+    assert ctx.handed == {0: {2}}
+    probe = lambda x: ctx.index.overlapping_owners(np.array([0]), np.array([[x, 0.0]]), np.array([0.05]))
+    assert set(probe(0.0)) == {2} and set(probe(2.5)) == {0}
+    sched.repair(ctx, results, [0], 2)        # (0, 2) is not a plan of the fake: c is not taken out
+    assert results[2] is made[(2, 2)] and results[0].warnings
+    assert set(probe(0.0)) == {2} and 0 in probe(2.5)
 
 
 def test_a_failed_lead_is_repaired_with_the_characters_it_times(monkeypatch):

@@ -194,6 +194,7 @@ class PlanContext:
     still: np.ndarray
     log: object
     cache: MotionCache | None = None
+    handed: dict = field(default_factory=dict)    # {character: those it took a failure over from}
 
     def cylinders(self, track):
         xz, rad = track_cylinders(self.graph, track)
@@ -684,8 +685,13 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
 
     A failed character is planned again in place; if that fails, without the (at most
     :data:`REPAIR_BLOCKERS`) planned characters it ran into, which are then planned again
-    around it -- kept only if all of them come out clean, else they are put back. A failed
-    character whose arrivals time others' goals (``after``, :func:`dependents`) is repaired
+    around it -- kept only if all of them come out clean, else they are put back. With
+    ``CrowdPolicy.hand_over``, one of them may come out failing instead, no worse off than the
+    repaired character was: the failure is handed over, and the next pass repairs it (a
+    character takes a failure over once, and never displaces the one that handed it over, so
+    the two cannot trade it back and forth). The count of failing characters is the same, but
+    the failure moves to a character whose blockers may give way where the first one's could
+    not. A failed character whose arrivals time others' goals (``after``, :func:`dependents`) is repaired
     with those others taken out, and they are planned again after its new plan: the group's
     new plans are kept only if the group as a whole is better off (:func:`_badness`, summed),
     else everything is put back as it was."""
@@ -786,8 +792,9 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set, h
         for b, n in step.blocked_by.items():
             hits[b] = hits.get(b, 0) + n
     hits.update(index.overlapping_owners(*ctx.cylinders(new.track), margin=ctx.params.margin))
+    handed_by = ctx.handed.get(ci, set())
     blockers = [b for b, _ in sorted(hits.items(), key=lambda kv: -kv[1])
-                if b != ci and b not in keep][:REPAIR_BLOCKERS]
+                if b != ci and b not in keep and b not in handed_by][:REPAIR_BLOCKERS]
     tried = [new]          # plans made with every other character in place
     spare = []             # ... and without the blockers (void once they are back)
     if blockers:
@@ -800,14 +807,17 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set, h
         first = _plan_among_held(ctx, results, ci, k, 2, {**held, **held_b})
         spare.append(first)
         again = {}
+        taker = None            # the blocker that takes the failure over (CrowdPolicy.hand_over)
         if not first.warnings:
             ctx.insert(ci, first.track)
             for b in blockers:
                 index.remove_owner(b)       # its start hold gives way to its plan
                 rb = plan_one(ctx, results, b, k, attempt=3, give_up=False)
-                if rb.warnings:
+                if rb.warnings and not (taker is None and ctx.policy.hand_over and b not in ctx.handed
+                                        and _badness(rb) <= _badness(old)):
                     spare.append(rb)
                     break
+                taker = b if rb.warnings else taker
                 again[b] = rb
                 ctx.insert(b, rb.track)
             if len(again) == len(blockers):
@@ -815,6 +825,10 @@ def _repair_alone(ctx: PlanContext, results: dict, ci: int, k: int, keep: set, h
                 for b, rb in again.items():
                     results[b] = _spent(rb, results[b])
                 results[ci] = _spent(first, old, new)
+                if taker is not None:
+                    ctx.handed[taker] = {ci}
+                    if ctx.log:
+                        ctx.log(f"{sc.characters[taker].name} takes {sc.characters[ci].name}'s failure over")
                 return {ci: old, **changed}
             spare += list(again.values())
             index.remove_owner(ci)

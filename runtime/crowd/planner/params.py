@@ -115,5 +115,8 @@ class CrowdPolicy:
     promote: bool = False          # a character that fails in the first pass where characters not
     #                                planned yet stand in its way has them planned first, then tries
     #                                again (runtime.crowd.scheduler._promote)
+    hand_over: bool = True         # a repair may leave one displaced blocker failing in place of the
+    #                                repaired character, when no worse off (once per character, and it
+    #                                may not displace that one in turn; runtime.crowd.scheduler.repair)
     reuse_motions: bool = True     # a motion found for one character is tried first for the next
     #                                with the same task relative to its start (motion_cache)
