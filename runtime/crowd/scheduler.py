@@ -691,8 +691,8 @@ def repair(ctx: PlanContext, results: dict, failed: list, k: int) -> None:
     character takes a failure over once, and never displaces the one that handed it over, so
     the two cannot trade it back and forth). The count of failing characters is the same, but
     the failure moves to a character whose blockers may give way where the first one's could
-    not. A failed character whose arrivals time others' goals (``after``, :func:`dependents`) is repaired
-    with those others taken out, and they are planned again after its new plan: the group's
+    not. A failed character whose arrivals time others' goals (``after``, :func:`dependents`) is
+    repaired with those others taken out, and they are planned again after its new plan: the group's
     new plans are kept only if the group as a whole is better off (:func:`_badness`, summed),
     else everything is put back as it was."""
     deps_of = dependents(ctx.sc)
