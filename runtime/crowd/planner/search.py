@@ -254,7 +254,8 @@ class RandomizedSearch:
             # splice and test the best new pairs below eps (a pair the final test rejects stays
             # in the population, see docs/decisions.md)
             K0 = len(costp)
-            for r in K0 + np.argsort(cn, kind="stable")[:p.splices_per_iteration]:
+            # the new pairs in ``order`` are in their own stable order (the keys of one sort)
+            for r in order[order >= K0][:p.splices_per_iteration]:
                 if not (allc[r] <= eps_p):
                     break
                 yield Step.SPLICE
@@ -263,7 +264,7 @@ class RandomizedSearch:
                     self.collision_at = None
                     return res
             # keep the k_m best of old and new
-            keep = np.argsort(allc, kind="stable")[:p.k_m]
+            keep = order[:p.k_m]
             Fp, Bp, nfp, nbp, ip, jp = Fa[keep], Ba[keep], nfa[keep], nba[keep], ia[keep], ja[keep]
             costp = allc[keep]
             if self.collision_at is not None and self.iterations >= p.reseed_after and costp[0] <= eps_p:
@@ -291,10 +292,12 @@ def sweep_rows(lib: MotionLibrary, params: SearchParams, Frow, nf, Brow, nb, sta
     pos = fpos if on_f else bpos
     c0 = int(pos[rng.integers(0, len(pos))])
     cols = [c0]
-    if pair and (c0 + 1) in set(pos.tolist()):
-        cols.append(c0 + 1)
-    elif pair and (c0 - 1) in set(pos.tolist()):
-        cols.insert(0, c0 - 1)
+    if pair:
+        where = set(pos.tolist())
+        if c0 + 1 in where:
+            cols.append(c0 + 1)
+        elif c0 - 1 in where:
+            cols.insert(0, c0 - 1)
     options = [np.concatenate([[row[c]], lib.alt_idx[lib.alt_ptr[row[c]]:lib.alt_ptr[row[c] + 1]]]) for c in cols]
     grid = np.stack(np.meshgrid(*options, indexing="ij"), axis=-1).reshape(-1, len(cols))
     if len(cols) == 2 and len(grid) > k:
