@@ -32,3 +32,43 @@ def test_in_sight_answers_as_the_exact_segment_test():
     a = a_all[0]
     pts = a + rng.normal(size=(8, 2)) * 6.0
     assert np.array_equal(GreedySeed.in_sight(plain, a, pts, 0.55), env.segment_clear(a[None], pts, 0.55))
+
+
+def test_a_backward_seed_tests_a_clip_where_it_plays_before_the_seed(default_graph):
+    """A backward seed at C takes clips that end at C (played back from it): their collision
+    samples lie on the way the clip came, not ahead of C, and end at C. An obstacle behind C
+    makes the clip not clear, one ahead does not; planned characters count only with
+    ``backward_moving``."""
+    from dataclasses import replace
+    from runtime.crowd.planner import MotionLibrary
+    from runtime.crowd.planner import kernels
+    from runtime.crowd.planner.collision import Collider
+    from runtime.motion.planar import compose
+    g = default_graph
+    lib = MotionLibrary(g)
+    e = int(np.argmax(np.hypot(lib.disp[:, 0], lib.disp[:, 1])))        # the longest clip
+    C = np.array([0.0, 0.0, 0.3])
+    start = compose(C[None], lib.disp_rev[e][None])[0]                     # where it starts
+    middle = 0.5 * (start[:2] + C[:2])
+    ahead = C[:2] - (middle - C[:2])                                       # mirrored through C
+
+    def seed(collider, compiled):
+        return GreedySeed(lib, collider.p, collider, None, compiled, int(g.edge_dst[e]), C, 300,
+                          np.array([C[:2], C[:2] - 5.0]), None, int(g.edge_state[e]), None, True, 10.0)
+    for disc, clear in ((middle, False), (ahead, True)):
+        def static(xz, disc=disc):
+            return np.hypot(xz[:, 0] - disc[0], xz[:, 1] - disc[1]) - 0.2
+
+        def collide(f, xz, r, disc=disc):
+            return np.hypot(xz[:, 0] - disc[0], xz[:, 1] - disc[1]) < r + 0.2
+        for compiled in (False, True):
+            walls = Collider(lib, lib.params, static=static)
+            assert bool(seed(walls, compiled).clear_here(np.array([e]), True)[0]) == clear
+            people = Collider(lib, lib.params, collide=collide)
+            assert bool(seed(people, compiled).clear_here(np.array([e]), True)[0])      # not counted
+            people = Collider(lib, replace(lib.params, backward_moving=True), collide=collide)
+            assert bool(seed(people, compiled).clear_here(np.array([e]), True)[0]) == clear
+    # the samples placed from where the clip starts end where it ends
+    xz, _, frames, _ = kernels.edge_samples(lib, np.array([e]), start[None], np.array([300 - (lib.nframes[e] - 1)]),
+                                            0.0)
+    assert np.hypot(*(xz[-1] - C[:2])) < 0.1 and frames[-1] == 300

@@ -65,9 +65,10 @@ class Collider:
     def clear_edges(self, edges: np.ndarray, cfg: np.ndarray, frames0: np.ndarray, moving: bool,
                     compiled: bool) -> tuple[np.ndarray, np.ndarray]:
         """(collision-free, and also ``static_prefer`` further from static obstacles) per
-        candidate clip ``edges`` placed at the configuration ``cfg``, clip k starting at frame
-        ``frames0[k]``. Vectorized over candidates (one compiled gather of their collision
-        samples with numba); the moving test stops each clip at its first hit.
+        candidate clip ``edges`` placed at the configuration ``cfg`` ((3,), or (n, 3): where
+        each clip starts), clip k starting at frame ``frames0[k]``. Vectorized over candidates
+        (one compiled gather of their collision samples with numba); the moving test stops
+        each clip at its first hit.
 
         Args:
             moving: test against planned characters too (their frames mean something).
@@ -86,7 +87,8 @@ class Collider:
             sidx = lib.samp_ptr[edges][which] + (np.arange(int(cnt.sum())) - (np.cumsum(cnt) - cnt)[which])
             gf = lib.samp_frame[sidx]
             local = np.stack([g.frame_cxz[gf, 0], g.frame_cxz[gf, 1], g.frame_heading[gf]], axis=1)
-            xz = compose(np.asarray(cfg, dtype=np.float64)[None], local)[:, :2]
+            cfg = np.asarray(cfg, dtype=np.float64)
+            xz = compose(cfg[None] if cfg.ndim == 1 else cfg[which], local)[:, :2]
             rad = g.frame_radius[gf].astype(np.float64) + self.p.margin
             frames = frames0[which] + lib.samp_off[sidx]
         starts = np.cumsum(cnt) - cnt

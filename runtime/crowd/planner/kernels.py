@@ -244,24 +244,25 @@ if AVAILABLE:
     @_nb.njit(cache=True, boundscheck=False, nogil=True)
     def _edge_samples(edges, cfg, frames0, samp_ptr, samp_frame, samp_off, frame_xz, frame_heading, frame_radius,
                       margin, xz, rad, frames):  # pragma: no cover - compiled
-        ch, sh = np.cos(cfg[2]), np.sin(cfg[2])
         m = 0
         for k in range(len(edges)):
             e = edges[k]
+            ch, sh = np.cos(cfg[k, 2]), np.sin(cfg[k, 2])
             for s in range(samp_ptr[e], samp_ptr[e + 1]):
                 gf = samp_frame[s]
                 lx = np.float64(frame_xz[gf, 0])
                 lz = np.float64(frame_xz[gf, 1])
-                xz[m, 0] = cfg[0] + ch * lx + sh * lz
-                xz[m, 1] = cfg[1] - sh * lx + ch * lz
+                xz[m, 0] = cfg[k, 0] + ch * lx + sh * lz
+                xz[m, 1] = cfg[k, 1] - sh * lx + ch * lz
                 rad[m] = np.float64(frame_radius[gf]) + margin
                 frames[m] = frames0[k] + samp_off[s]
                 m += 1
 
 
 def edge_samples(lib, edges, cfg, frames0, margin):
-    """The collision samples of candidate clips ``edges`` all placed at one configuration
-    ``cfg`` (x, z, heading), clip k starting at absolute frame ``frames0[k]``: (xz (S, 2),
+    """The collision samples of candidate clips ``edges`` placed at the configuration ``cfg``
+    (x, z, heading; (3,) for all, or (n, 3) one per clip: where each starts), clip k starting at
+    absolute frame ``frames0[k]``: (xz (S, 2),
     radius + ``margin`` (S,), frames (S,), samples per clip (n,)), in clip order -- what the
     seed planner's clear test (:meth:`SegmentPlanner._clear`) gathers with numpy, in one
     compiled loop (same arithmetic: the planar composition of ``synthesis.compose``)."""
@@ -272,7 +273,8 @@ def edge_samples(lib, edges, cfg, frames0, margin):
     rad = np.empty(S)
     frames = np.empty(S, np.int64)
     g = lib.g
-    _edge_samples(edges, np.asarray(cfg, np.float64), np.asarray(frames0, np.int64), lib.samp_ptr, lib.samp_frame,
+    cfgs = np.ascontiguousarray(np.broadcast_to(np.asarray(cfg, np.float64), (len(edges), 3)))
+    _edge_samples(edges, cfgs, np.asarray(frames0, np.int64), lib.samp_ptr, lib.samp_frame,
                   lib.samp_off, g.frame_cxz, g.frame_heading, g.frame_radius, float(margin), xz, rad, frames)
     return xz, rad, frames, cnt
 

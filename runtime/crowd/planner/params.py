@@ -54,6 +54,9 @@ class SearchParams:
     reach_radius: float = 0.75     # a way point counts as reached within this distance (m)
     max_sidesteps: int = 6         # non-improving clear edges a seed may take per way point
     max_turns: int = 6             # edges a seed may take to turn towards its target when none gains on it
+    backward_moving: bool = False  # backward seeds also keep clear of planned characters (at the
+    #                                frames counted back from the window's middle); they always
+    #                                keep clear of the static obstacles
     max_waits: int = 8             # idle clips a seed may insert to let a planned character pass
     stop_to_wait: bool = True      # a timed seed blocked at a walking hub stops on a node with idle clips to wait
     backward_idle: bool = False    # backward seeds may idle at the goal to spend surplus time

@@ -256,8 +256,12 @@ class GreedySeed:
         """(collision-free, and also ``static_prefer`` clear of static obstacles) per edge of
         ``es`` from the current configuration and frame."""
         es = np.asarray(es, dtype=np.int64)
-        frames0 = np.full(len(es), self.frame) if not self.reverse else self.frame - (self.lib.nframes[es] - 1)
-        return self.collider.clear_edges(es, self.cfg, frames0, moving, self.compiled)
+        if not self.reverse:
+            return self.collider.clear_edges(es, self.cfg, np.full(len(es), self.frame), moving, self.compiled)
+        # a backward seed's clip ends where the seed is: it is placed from where it starts
+        starts = compose(self.cfg[None], self.disp[es])
+        return self.collider.clear_edges(es, starts, self.frame - (self.lib.nframes[es] - 1),
+                                         moving and self.p.backward_moving, self.compiled)
 
     def clear_here(self, es, moving):
         """Which edges from the current configuration and frame are collision-free."""
