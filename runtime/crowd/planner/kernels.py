@@ -262,10 +262,10 @@ if AVAILABLE:
 def edge_samples(lib, edges, cfg, frames0, margin):
     """The collision samples of candidate clips ``edges`` placed at the configuration ``cfg``
     (x, z, heading; (3,) for all, or (n, 3) one per clip: where each starts), clip k starting at
-    absolute frame ``frames0[k]``: (xz (S, 2),
-    radius + ``margin`` (S,), frames (S,), samples per clip (n,)), in clip order -- what the
-    seed planner's clear test (:meth:`SegmentPlanner._clear`) gathers with numpy, in one
-    compiled loop (same arithmetic: the planar composition of ``synthesis.compose``)."""
+    absolute frame ``frames0[k]``: (xz (S, 2), radius + ``margin`` (S,), frames (S,), samples per
+    clip (n,)), in clip order -- what the seed planner's clear test
+    (:meth:`SegmentPlanner._clear`) gathers with numpy, in one compiled loop (same arithmetic:
+    the planar composition of ``synthesis.compose``)."""
     edges = np.asarray(edges, np.int64)
     cnt = lib.samp_ptr[edges + 1] - lib.samp_ptr[edges]
     S = int(cnt.sum())
