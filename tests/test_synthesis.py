@@ -636,6 +636,54 @@ def test_splice_to_a_given_number_of_frames(default_graph):
                   (4.0, 8.0), frames=int(9.0 * 30)) is None
 
 
+
+def test_resampled_rows_are_the_rows_of_the_whole_resample(default_graph):
+    """The retimes' partial resample gives, at any output frames, the very numbers of the whole
+    resample at those frames, first and last frames included."""
+    from runtime.crowd.planner.splice import resample_grid, resample_rows, resample_source, splice_source
+    lib = MotionLibrary(default_graph)
+    planner = SegmentPlanner(lib)
+    node = int(default_graph.nodes_with_label("stand")[0])
+    goal = Goal(np.array([4.0, 3.0]), 0.5, None, (4.0, 8.0))
+    start = Config(node, 0.0, 0.0, 0.0, 0)
+    res = run_to_completion(planner.run(start, goal, np.random.default_rng(1)))
+    F, B = np.array(res.edges), np.array([-1])
+    src = splice_source(lib, start, res.root[-1], F, len(F) - 2, np.array(res.edges[-2:]), 0)
+    for m in (len(res.root) - 7, len(res.root) + 5):
+        whole = resample_source(lib.params, src, res.end.node, start, m)
+        a, b, t, _ = resample_grid(lib.params, len(src.frames), src.nff, src.nbf, m)
+        rows = np.array([0, 1, m // 2, m - 1, m])
+        assert np.array_equal(resample_rows(src, a, b, t, rows), whole.root[rows])
+        assert np.array_equal(src.frames[a[rows]], whole.frames_a[rows])
+
+
+def test_hits_runs_is_first_hit_per_run(default_graph):
+    """Collider.hits_runs answers, for many runs of samples at once, what first_hit answers for
+    each run: static obstacles and planned characters both count."""
+    from runtime.crowd.planner.collision import Collider
+    lib = MotionLibrary(default_graph)
+    wall_x = 1.0
+
+    def static(xz):
+        return wall_x - xz[:, 0]
+
+    def collide(f, xz, r):
+        return (np.hypot(xz[:, 0] + 2.0, xz[:, 1]) < r + 0.3) & (np.asarray(f) >= 10)
+
+    col = Collider(lib, lib.params, static=static, collide=collide)
+    rng = np.random.default_rng(4)
+    counts = np.array([5, 0, 7, 3, 6, 4])
+    n = counts.sum()
+    xz = np.column_stack([rng.uniform(-3.0, 1.5, n), rng.uniform(-0.5, 0.5, n)])
+    frames = rng.integers(0, 20, n)
+    rad = np.full(n, 0.3)
+    starts = np.cumsum(counts) - counts
+    want = [col.first_hit(frames[s:s + c], xz[s:s + c], rad[s:s + c]) >= 0 if c else False
+            for s, c in zip(starts, counts)]
+    got = col.hits_runs(frames, xz, rad, counts)
+    assert got.tolist() == want
+    assert any(want) and not all(want)
+
 def _repair_setup(monkeypatch, plans, lead=False, starts=None, seen=None):
     """Three planned characters (a, b at rest apart; c failed, standing on a) and a fake
     planner returning ``plans[(character, attempt)]``. ``lead``: a failed instead, standing

@@ -118,6 +118,22 @@ class Collider:
             first = k if k >= 0 else first
         return first if first < len(xz) else -1
 
+    def hits_runs(self, frames, xz, rad, counts) -> np.ndarray:
+        """Per run of ``counts`` consecutive samples: whether any sample's cylinder (``rad``
+        includes the margin) hits an obstacle or a planned character -- :meth:`first_hit`
+        ``>= 0`` of each run, for many runs at once."""
+        counts = np.asarray(counts, dtype=np.int64)
+        out = np.zeros(len(counts), dtype=bool)
+        some = counts > 0
+        if not some.any():
+            return out
+        starts = (np.cumsum(counts) - counts)[some]
+        if self.static is not None:
+            out[some] |= np.logical_or.reduceat(self.static(xz) < rad, starts)
+        if self.collide_runs is not None:
+            out |= self.collide_runs(frames, xz, rad, counts)
+        return out
+
     def hits_between(self, res: SegmentResult, lo: int, hi: int) -> bool:
         """Whether an output frame of ``res`` in ``[lo, hi)`` hits an obstacle or a planned
         character: part of :meth:`final_collision`'s test, so True means it returns a hit."""

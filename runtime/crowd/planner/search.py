@@ -27,7 +27,7 @@ from .collision import Collider
 from .costs import pair_costs, pairs_static_clear
 from .library import MotionLibrary
 from .params import SearchParams
-from .splice import splice
+from .splice import fits, resample_grid, resample_rates, resample_rows, resample_source, splice, splice_source
 from .types import Config, SegmentResult, Step
 
 __all__ = ["RandomizedSearch", "sweep_rows", "within_eps", "RETIME_NEAR"]
@@ -37,7 +37,12 @@ RETIME_NEAR = 6     # output frames either side of the first hit a retimed splic
 
 def within_eps(res: SegmentResult, eps) -> bool:
     """Whether a splice's per-frame adjustment is within the tolerance."""
-    return all(x <= e * (1 + 1e-9) for x, e in zip(res.rates, eps))
+    return within_eps_rates(res.rates, eps)
+
+
+def within_eps_rates(rates, eps) -> bool:
+    """Whether per-frame adjustment ``rates`` (m/s, deg/s, s/s) are within the tolerance."""
+    return all(x <= e * (1 + 1e-9) for x, e in zip(rates, eps))
 
 
 class RandomizedSearch:
@@ -141,12 +146,13 @@ class RandomizedSearch:
     def _retimed(self, res, Frow, i, Brow, j, hit: int):
         """Generator: the same splice at the nearest other durations (time resampling within
         eps_t and the window): returns the first that is within eps and collision-free, or
-        None; yields :attr:`Step.SPLICE` before the splices and before each final test.
+        None; yields :attr:`Step.SPLICE` before the splice and before each final test.
 
-        ``res`` first hit someone at output frame ``hit``; few retimes clear that, so each is
-        first tested on the frames about the same point of its path
-        (:data:`RETIME_NEAR` either side), and only a motion clear there gets the whole final
-        test -- the same verdicts, for a fraction of the frames."""
+        ``res`` first hit someone at output frame ``hit``; few retimes clear that, so every
+        duration is first tested -- all at once, without resampling the rest of the motion --
+        on the frames about the same point of its path (:data:`RETIME_NEAR` either side), and
+        only a motion clear there is resampled whole for the final test: the same verdicts,
+        for a fraction of the work."""
         p = self.p
         m0 = len(res.root) - 1
         raw = int(sum(self.lib.nframes[e] - 1 for e in res.edges))      # source frame steps
@@ -157,13 +163,32 @@ class RandomizedSearch:
         if not cands:
             return None
         yield Step.SPLICE
-        rs = [r for r in self.splice(Frow, i, Brow, j, frames=cands) if r is not None and within_eps(r, p.eps)]
-        scale = 1.0 / max(len(res.root) - 1, 1)
-        for r2 in rs:
-            yield Step.SPLICE
-            at = int(round(hit * (len(r2.root) - 1) * scale))
-            if self.collider.hits_between(r2, at - RETIME_NEAR, at + RETIME_NEAR + 1):
+        src = splice_source(self.lib, self.start, self.goal_cfg, Frow, i, Brow, j)
+        # every duration inside the window and eps, tested at once about the same point of
+        # its path; then the whole final test of each clear there, in order
+        scale = 1.0 / max(m0, 1)
+        kept, rows_of = [], []
+        for m in cands:
+            if not fits(p, self.window_rel, m):
                 continue
+            a, b, t, s_parts = resample_grid(p, len(src.frames), src.nff, src.nbf, m)
+            if not within_eps_rates(resample_rates(src.dp, src.dh, src.N, s_parts), p.eps):
+                continue
+            at = int(round(hit * m * scale))
+            kept.append(m)
+            rows_of.append((a, b, t, np.arange(max(at - RETIME_NEAR, 0), min(at + RETIME_NEAR + 1, m + 1))))
+        if not kept:
+            return None
+        counts = np.array([len(r[3]) for r in rows_of], dtype=np.int64)
+        root = np.concatenate([resample_rows(src, a, b, t, rows) for a, b, t, rows in rows_of])
+        fa = np.concatenate([src.frames[a[rows]] for a, _, _, rows in rows_of])
+        fb = np.concatenate([src.frames[b[rows]] for _, b, _, rows in rows_of])
+        frames = self.start.frame + np.concatenate([rows for *_, rows in rows_of])
+        xz, rad = blend_cylinders(self.lib.g, fa, fb, root)
+        near = self.collider.hits_runs(frames, xz, rad + p.margin, counts)
+        for m in np.asarray(kept)[~near]:
+            yield Step.SPLICE
+            r2 = resample_source(p, src, self.goal_node, self.start, int(m))
             if self.collider.final_collision(r2) is None:
                 return r2
         return None

@@ -4,6 +4,8 @@ position and orientation mismatch over both parts so the start and the goal hold
 result is resampled in time to a duration inside the goal's window, on the fixed frame grid."""
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ...motion.planar import TWO_PI, compose, compose1, compose_inverse, wrap_angle
@@ -11,15 +13,27 @@ from .library import MotionLibrary
 from .params import SearchParams
 from .types import Config, SegmentResult
 
-__all__ = ["splice", "resample"]
+__all__ = ["splice", "splice_source", "output_steps", "fits", "resample", "resample_source",
+           "resample_grid", "resample_rates", "resample_rows", "Source"]
 
 
-def splice(lib: MotionLibrary, params: SearchParams, start: Config, goal_cfg, goal_node, Frow, i, Brow, j,
-           window_rel, force: bool = False, frames=None):
-    """Steps 1-4 of section 3.3 for the pair (M_f[:i], M_b[j:]). The result lasts the
-    duration nearest the raw one inside the window, or ``frames`` output frames (None if
-    outside the window); ``frames`` a sequence: a list of results, one per duration."""
-    g, p = lib.g, params
+class Source(NamedTuple):
+    """A pair spliced but not yet resampled (steps 1-3): source frames and their adjusted roots."""
+
+    frames: np.ndarray      # (n,) library frames in playing order
+    root: np.ndarray        # (n, 3) adjusted root per source frame
+    nff: int                # source frames of the forward part (the junction is its last)
+    nbf: int                # ... of the backward part
+    dp: np.ndarray          # (2,) the position mismatch the displacement maps spread
+    dh: float               # ... and the heading mismatch
+    N: float                # seconds of the two parts together
+    edges: list             # library edges in order
+
+
+def splice_source(lib: MotionLibrary, start: Config, goal_cfg, Frow, i, Brow, j) -> Source | None:
+    """Steps 1-3 of section 3.3 for the pair (M_f[:i], M_b[j:]): the forward part placed at the
+    start, the backward part ending at the goal, and the displacement maps that join them."""
+    g = lib.g
     fe = [int(e) for e in Frow[:i]]
     be = [int(e) for e in Brow[j:] if e >= 0]
     edges = fe + be
@@ -87,38 +101,59 @@ def splice(lib: MotionLibrary, params: SearchParams, start: Config, goal_cfg, go
         else:
             parts_f.append(bf)
             parts_r.append(adj)
-    src_frames = np.concatenate(parts_f)
-    src_root = np.concatenate(parts_r)
-    n_src = len(src_frames)
-    # step 4: resample to a duration inside the window, on the frame grid
-    fps = p.fps
+    return Source(np.concatenate(parts_f), np.concatenate(parts_r), len(ff), len(bf), dp, dh, N, edges)
+
+
+def output_steps(params: SearchParams, n_src: int, window_rel, force: bool = False) -> int | None:
+    """Step 4's duration: output steps nearest the raw ``n_src - 1`` inside the window (None
+    when no whole number of frames is inside it, unless ``force``)."""
+    fps = params.fps
+    if window_rel is None:
+        return n_src - 1
     D = (n_src - 1) / fps
-    if window_rel is not None:
-        lo, hi = window_rel
-        target = min(max(D, lo), hi)
-        m1 = int(round(target * fps))
-        if m1 / fps < lo - 1e-9:
-            m1 += 1
-        if m1 / fps > hi + 1e-9:
-            m1 -= 1
-        if not (lo - 1e-9 <= m1 / fps <= hi + 1e-9) and not force and frames is None:
-            return None
-    else:
-        m1 = n_src - 1
+    lo, hi = window_rel
+    target = min(max(D, lo), hi)
+    m1 = int(round(target * fps))
+    if m1 / fps < lo - 1e-9:
+        m1 += 1
+    if m1 / fps > hi + 1e-9:
+        m1 -= 1
+    if not (lo - 1e-9 <= m1 / fps <= hi + 1e-9) and not force:
+        return None
+    return m1
+
+
+def splice(lib: MotionLibrary, params: SearchParams, start: Config, goal_cfg, goal_node, Frow, i, Brow, j,
+           window_rel, force: bool = False, frames=None):
+    """Steps 1-4 of section 3.3 for the pair (M_f[:i], M_b[j:]). The result lasts the
+    duration nearest the raw one inside the window, or ``frames`` output frames (None if
+    outside the window); ``frames`` a sequence: a list of results, one per duration."""
+    src = splice_source(lib, start, goal_cfg, Frow, i, Brow, j)
+    if src is None:
+        return None
     if frames is None:
-        return resample(params, src_frames, src_root, len(ff), len(bf), dp, dh, N, goal_node, start, edges, m1)
-    out = []
-    for m in np.atleast_1d(frames):
-        m = int(m)
-        inside = window_rel is None or (window_rel[0] - 1e-9 <= m / fps <= window_rel[1] + 1e-9)
-        out.append(resample(params, src_frames, src_root, len(ff), len(bf), dp, dh, N, goal_node, start, edges, m)
-                   if inside and m >= 1 else None)
+        m1 = output_steps(params, len(src.frames), window_rel, force)
+        return None if m1 is None else resample_source(params, src, goal_node, start, m1)
+    out = [resample_source(params, src, goal_node, start, int(m)) if fits(params, window_rel, int(m)) else None
+           for m in np.atleast_1d(frames)]
     return out if np.ndim(frames) else out[0]
 
-def resample(params: SearchParams, src_frames, src_root, nff, nbf, dp, dh, N, goal_node, start, edges, m1):
-    """Step 4: the spliced source frames resampled to ``m1`` output steps."""
+
+def fits(params: SearchParams, window_rel, m: int) -> bool:
+    """Whether ``m`` output steps are a duration inside the window (and at least one step)."""
+    return m >= 1 and (window_rel is None or window_rel[0] - 1e-9 <= m / params.fps <= window_rel[1] + 1e-9)
+
+
+def resample_source(params: SearchParams, src: Source, goal_node, start: Config, m1: int):
+    """Step 4 for a :class:`Source`."""
+    return resample(params, src.frames, src.root, src.nff, src.nbf, src.dp, src.dh, src.N, goal_node, start,
+                    src.edges, m1)
+
+def resample_grid(params: SearchParams, n_src: int, nff: int, nbf: int, m1: int):
+    """Step 4's time warp: for each of the ``m1 + 1`` output frames, the two source frames it
+    blends and the blend weight, (a, b, t), and the parts' time scales (source steps per
+    output step)."""
     p = params
-    n_src = len(src_frames)
     m1 = max(int(m1), 1)
     # Each part is resampled on its own so that the junction lands exactly on an output
     # frame: an output frame straddling it would mix the two parts' displacement maps (whose
@@ -141,12 +176,36 @@ def resample(params: SearchParams, src_frames, src_root, nff, nbf, dp, dh, N, go
     a = np.minimum(a, n_src - 2) if n_src > 1 else a
     t = np.clip(u - a, 0.0, 1.0)
     b = np.minimum(a + 1, n_src - 1)
+    return a, b, t, s_parts
+
+
+def resample_rates(dp, dh, N, s_parts) -> tuple:
+    """The per-frame adjustment (m/s, deg/s, s/s) of a splice resampled with time scales
+    ``s_parts``: what :func:`~.search.within_eps` compares with eps."""
+    s = max(s_parts)
+    return (float(np.hypot(*dp) * s / N), float(np.degrees(abs(dh)) * s / N),
+            float(max(abs(x - 1.0) for x in s_parts)))
+
+
+def resample_rows(src: Source, a, b, t, rows) -> np.ndarray:
+    """The resampled root at output frames ``rows`` only (the same numbers as
+    :func:`resample`'s rows)."""
+    last = len(a) - 1
+    ra, rb, rt = a[rows], b[rows], t[rows]
+    root = src.root[ra] * (1 - rt)[:, None] + src.root[rb] * rt[:, None]
+    root[rows == 0] = src.root[0]
+    root[rows == last] = src.root[-1]
+    return root
+
+
+def resample(params: SearchParams, src_frames, src_root, nff, nbf, dp, dh, N, goal_node, start, edges, m1):
+    """Step 4: the spliced source frames resampled to ``m1`` output steps."""
+    m1 = max(int(m1), 1)
+    a, b, t, s_parts = resample_grid(params, len(src_frames), nff, nbf, m1)
     root = src_root[a] * (1 - t)[:, None] + src_root[b] * t[:, None]
     root[0] = src_root[0]
     root[-1] = src_root[-1]
-    s = max(s_parts)
-    rates = (float(np.hypot(*dp) * s / N), float(np.degrees(abs(dh)) * s / N),
-             float(max(abs(x - 1.0) for x in s_parts)))
+    rates = resample_rates(dp, dh, N, s_parts)
     end = Config(int(goal_node), float(root[-1, 0]), float(root[-1, 1]), float(root[-1, 2]), start.frame + m1)
     # exact end: the last frame is the goal configuration by construction
     return SegmentResult(True, src_frames[a], src_frames[b], t.astype(np.float32), root, start.frame, end,
