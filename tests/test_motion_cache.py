@@ -84,8 +84,12 @@ def test_a_stored_motion_placed_elsewhere_keeps_its_shape_and_meets_the_goal_exa
 
 
 def test_side_by_side_characters_reuse_one_motion(default_graph):
+    # 4 m apart, each walk is an interaction group of its own, and groups planned apart keep
+    # their own caches: planned as one group, the three share one
     sc = _scenario([(0.0, 0.0, 90.0, 10.0, 0.0), (0.0, 4.0, 90.0, 10.0, 4.0), (0.0, -4.0, 90.0, 10.0, -4.0)])
-    res = plan_scenario(sc, default_graph)
+    apart = plan_scenario(sc, default_graph)
+    assert (apart.groups, apart.reused) == (3, 0)
+    res = plan_scenario(sc, default_graph, policy=CrowdPolicy(split_groups=False))
     assert (res.reused, res.searched) == (2, 1)
     s = _check(sc, res, default_graph)
     assert s["passed"], s

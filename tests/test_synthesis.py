@@ -927,10 +927,11 @@ def test_a_character_with_time_to_wait_starts_on_a_still_node(default_graph, mon
         return parse_scenario({"name": "w", "duration": 15.0, "seed": 0, "synthesis": {"passes": 1, **syn},
                                "character": chars})
 
-    plan_scenario(scenario(), g)
+    # (one worker: the spy sees the groups planned in this process)
+    plan_scenario(scenario(), g, policy=CrowdPolicy(workers=1))
     assert first == {"waits": stand, "free": hub, "tight": hub}
     first.clear()
-    plan_scenario(scenario(start_still=False), g)
+    plan_scenario(scenario(start_still=False), g, policy=CrowdPolicy(workers=1))
     assert first == {"waits": hub, "free": hub, "tight": hub}
 
 

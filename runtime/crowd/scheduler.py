@@ -7,7 +7,10 @@ final node's self-loop clips with their drift removed) until the end.
 """
 from __future__ import annotations
 
+import multiprocessing
+import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -52,6 +55,8 @@ class CrowdResult:
     passes: int = 1           # planning passes run (failed characters first in each new one)
     reused: int = 0           # segments whose motion was another character's, reused (motion_cache)
     searched: int = 0         # segments that searched (no stored motion for the task was clear)
+    groups: int = 1           # interaction groups planned apart (CrowdPolicy.split_groups)
+    cpu_seconds: float = 0.0  # CPU of the planning, worker processes included
 
     def by_name(self, name) -> CharacterResult:
         return next(c for c in self.characters if c.name == name)
@@ -80,12 +85,18 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     with warnings (:func:`repair`): every planned character stays in the space-time index, so
     a repaired plan is tested against all the others, before and after it in the order.
 
+    With ``policy.split_groups`` each interaction group (:func:`planning_groups`: characters
+    whose routes come near each other) is planned so on its own -- in ``policy.workers``
+    forked processes at once -- and the groups are then merged; characters of different
+    groups that meet after all (a detour) are planned again against everyone
+    (:func:`mend_between_groups`). The plans do not depend on the number of workers.
+
     Args:
         sc: the scenario; its ``[synthesis]`` table overrides ``n_m``, ``k_m``, ``n_max``,
             ``approach_point`` (search) and ``start_still``, ``passes`` (policy).
         graph, env, roadmap: the motion graph, the environment and its roadmap (may be None).
         params, policy: defaults: the paper's search with the scenario's eps, the default policy.
-        progress: called with 1 after each character of the first pass.
+        progress: called with the number of characters planned (of the first pass), as they are.
         log: called with messages (repairs, warnings).
     """
     params = params or SearchParams(eps=sc.epsilon)
@@ -104,13 +115,141 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     # the sampled field may overestimate clearance by up to max_error: stay conservative
     static = Clearance(sdf, sdf.max_error) if sdf is not None else None
     t_all = time.perf_counter()
+    cpu0 = time.process_time()
     passes = max(1, int(sc.synthesis.get("passes", policy.passes)))
-    ctx = PlanContext(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static,
-                      Reservations(max(1.2, 2 * lib.max_reach + 2 * (params.margin + params.seed_margin) + 0.05),
-                                   n_total, len(sc.characters)),
-                      still_nodes(graph, params.eps, fps), log,
-                      MotionCache() if policy.reuse_motions else None)
+    setup = _Setup(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static, still_nodes(graph, params.eps, fps))
     order = crowd_order(sc, policy.order, env, roadmap, static=static, fps=fps, n_total=n_total, log=log)
+    groups = planning_groups(sc, env, roadmap, order, static) if policy.split_groups and len(order) > 1 else [order]
+    parts = _plan_groups(setup, groups, passes, policy.workers, progress, log)
+    ctx = _context(setup, log)
+    results: dict[int, CharacterResult] = {}
+    k = 1
+    worker_cpu = 0.0
+    for res_g, k_g, cpu_g, hits_g, misses_g in parts:
+        results.update(res_g)
+        k = max(k, k_g)
+        worker_cpu += cpu_g
+        if ctx.cache is not None:
+            ctx.cache.hits += hits_g
+            ctx.cache.misses += misses_g
+    for ci in order:
+        ctx.insert(ci, results[ci].track)
+    if len(groups) > 1:
+        mend_between_groups(ctx, results, groups, order, passes)
+    total = time.perf_counter() - t_all
+    hits, misses = (ctx.cache.hits, ctx.cache.misses) if ctx.cache is not None else (0, 0)
+    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k,
+                       hits, misses, len(groups), time.process_time() - cpu0 + worker_cpu)
+
+
+@dataclass
+class _Setup:
+    """What every planning context of one scenario shares (read only)."""
+
+    sc: Scenario
+    graph: object
+    env: object
+    roadmap: object
+    params: SearchParams
+    policy: CrowdPolicy
+    lib: MotionLibrary
+    fps: float
+    n_total: int
+    static: object
+    still: np.ndarray
+
+
+def _context(setup: _Setup, log) -> PlanContext:
+    """A planning context with an empty space-time index and motion cache."""
+    p = setup.params
+    return PlanContext(setup.sc, setup.graph, setup.env, setup.roadmap, p, setup.policy, setup.lib, setup.fps,
+                       setup.n_total, setup.static,
+                       Reservations(max(1.2, 2 * setup.lib.max_reach + 2 * (p.margin + p.seed_margin) + 0.05),
+                                    setup.n_total, len(setup.sc.characters)),
+                       setup.still, log, MotionCache() if setup.policy.reuse_motions else None)
+
+
+NARROW = 1.0           # m from obstacles where walking counts as narrow (planning_groups)
+NARROW_SAMPLE = 0.25   # m between the route points counted
+
+
+def planning_groups(sc: Scenario, env, roadmap, order: list, static=None) -> list[list[int]]:
+    """The scenario's interaction groups (:func:`~.priorities.interaction_groups`: characters
+    whose routes come near each other, or tied by ``after``), each in planning ``order``. The
+    groups come in the order worker processes take them up: the most route points within
+    :data:`NARROW` of an obstacle (``static``) first -- planning time goes to doors and
+    passages -- then the largest; ties by their first character in ``order``. (The order
+    changes how long the planning takes, not the plans.)"""
+    from .priorities import interaction_groups, route_legs
+    rank = {ci: r for r, ci in enumerate(order)}
+    legs = route_legs(sc, env, roadmap)
+    groups = [sorted(g, key=rank.__getitem__) for g in interaction_groups(sc, env, legs)]
+
+    def narrow(g):
+        if static is None:
+            return 0
+        pts = []
+        for ci in g:
+            for _, way in legs[ci]:
+                for a, b in zip(way[:-1], way[1:]):
+                    m = max(1, int(np.ceil(np.hypot(*(b - a)) / NARROW_SAMPLE)))
+                    pts.append(a + (np.arange(m) / m)[:, None] * (b - a))
+        return int((static(np.concatenate(pts)) < NARROW).sum()) if pts else 0
+
+    return sorted(groups, key=lambda g: (-narrow(g), -len(g), rank[g[0]]))
+
+
+_GROUP_JOB = None       # (setup, groups, passes, with_log) for the forked workers of _plan_groups
+
+
+def _plan_group(setup: _Setup, group: list, passes: int, progress, log) -> tuple:
+    """One interaction group planned on its own (its own index and motion cache): (results,
+    passes run, CPU seconds, motions reused, searched)."""
+    t = time.process_time()
+    ctx = _context(setup, log)
+    results, k = _plan_characters(ctx, group, passes, progress)
+    hits, misses = (ctx.cache.hits, ctx.cache.misses) if ctx.cache is not None else (0, 0)
+    return results, k, time.process_time() - t, hits, misses
+
+
+def _group_in_worker(gi: int):
+    setup, groups, passes, with_log = _GROUP_JOB
+    lines: list = []
+    out = _plan_group(setup, groups[gi], passes, None, lines.append if with_log else None)
+    return out, lines
+
+
+def _plan_groups(setup: _Setup, groups: list, passes: int, workers, progress, log) -> list:
+    """Every group planned on its own, in forked worker processes when ``workers`` (None:
+    the cores) allows more than one and this process may have children: the plans are the
+    same bytes either way."""
+    n = min(len(groups), workers if workers is not None else (os.cpu_count() or 1))
+    if n <= 1 or "fork" not in multiprocessing.get_all_start_methods() or multiprocessing.current_process().daemon:
+        # (a daemonic process -- a batch worker, itself one per core -- may not have children)
+        # (no worker CPU: it is this process's own)
+        return [(r, k, 0.0, h, m) for r, k, _, h, m in (_plan_group(setup, g, passes, progress, log) for g in groups)]
+    global _GROUP_JOB
+    _GROUP_JOB = (setup, groups, passes, log is not None)
+    try:
+        with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("fork")) as pool:
+            futures = [pool.submit(_group_in_worker, gi) for gi in range(len(groups))]
+            parts = []
+            for gi, f in enumerate(futures):
+                out, lines = f.result()
+                parts.append(out)
+                for line in lines:
+                    log(line)
+                if progress:
+                    progress(len(groups[gi]))
+    finally:
+        _GROUP_JOB = None
+    return parts
+
+
+def _plan_characters(ctx: PlanContext, order: list, passes: int, progress) -> tuple[dict, int]:
+    """Pass 1 over ``order``, then repair passes (see :func:`plan_scenario`): ({character:
+    result}, passes run)."""
+    policy = ctx.policy
     holds = hold_starts(ctx, order)
     held = HeldStarts(holds)
     if policy.reserve_goals:
@@ -161,14 +300,58 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
         failed = [ci for ci in order if results[ci].warnings]
         if not failed:
             break
-        if log:
-            log(f"pass {k + 1}: repairing {len(failed)} character(s) without a clean plan")
+        if ctx.log:
+            ctx.log(f"pass {k + 1}: repairing {len(failed)} character(s) without a clean plan")
         repair(ctx, results, failed, k)
         k += 1
-    total = time.perf_counter() - t_all
-    cache = ctx.cache
-    return CrowdResult(sc, fps, n_total, [results[i] for i in range(len(sc.characters))], order, total, k,
-                       cache.hits if cache else 0, cache.misses if cache else 0)
+    return results, k
+
+
+MEND_ROUNDS = 3     # rounds of planning again the characters of different groups that meet
+
+
+def between_groups(ctx: PlanContext, results: dict, group_of: dict, order: list) -> list:
+    """The characters, in ``order``, whose tracks overlap a character of another group."""
+    bad = set()
+    for ci in order:
+        hits = ctx.index.overlapping_owners(*ctx.cylinders(results[ci].track), margin=ctx.params.margin)
+        for o in hits:
+            if o != ci and group_of.get(o, -1) != group_of[ci]:
+                bad |= {ci, int(o)}
+    return [ci for ci in order if ci in bad]
+
+
+def mend_between_groups(ctx: PlanContext, results: dict, groups: list, order: list, passes: int) -> None:
+    """Groups are planned apart, each blind to the others; their routes never come near each
+    other, but a detour may. The characters of different groups that meet are planned again
+    against everyone (in ``order``, their starts held until then, as in the first pass), then
+    repaired once; for at most :data:`MEND_ROUNDS` rounds."""
+    group_of = {ci: gi for gi, g in enumerate(groups) for ci in g}
+    for rnd in range(MEND_ROUNDS):
+        bad = between_groups(ctx, results, group_of, order)
+        if not bad:
+            return
+        if ctx.log:
+            names = ", ".join(ctx.sc.characters[ci].name for ci in bad)
+            ctx.log(f"groups meet: planning {names} again against everyone")
+        for ci in bad:
+            ctx.index.remove_owner(ci)
+        holds = hold_starts(ctx, bad)
+        held = HeldStarts(holds)
+        for ci in bad:
+            ctx.index.remove_owner(ci)
+            held.release(ci)
+            freed = goal_holds(ctx, ci, held)
+            for j in freed:
+                ctx.index.release_hold(j)
+            old = results[ci]
+            results[ci] = _spent(plan_one(ctx, results, ci, passes + rnd), old)
+            ctx.insert(ci, results[ci].track)
+            for j in freed:
+                ctx.index.hold(j, *holds[j])
+        failed = [ci for ci in bad if results[ci].warnings]
+        if failed:
+            repair(ctx, results, failed, passes + rnd)
 
 
 REPAIR_BLOCKERS = 3     # planned characters a failed one may displace in a repair

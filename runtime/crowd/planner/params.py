@@ -121,5 +121,7 @@ class CrowdPolicy:
     hand_over: bool = True         # a repair may leave one displaced blocker failing in place of the
     #                                repaired character, when no worse off (once per character, and it
     #                                may not displace that one in turn; runtime.crowd.scheduler.repair)
+    split_groups: bool = True      # interaction groups are planned apart, then merged (runtime.crowd.scheduler)
+    workers: int | None = None     # processes planning groups at once (None: the cores; 1: in this process)
     reuse_motions: bool = True     # a motion found for one character is tried first for the next
     #                                with the same task relative to its start (motion_cache)
