@@ -117,7 +117,8 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     t_all = time.perf_counter()
     cpu0 = time.process_time()
     passes = max(1, int(sc.synthesis.get("passes", policy.passes)))
-    setup = _Setup(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static, still_nodes(graph, params.eps, fps))
+    setup = PlanContext(sc, graph, env, roadmap, params, policy, lib, fps, n_total, static, None,
+                        still_nodes(graph, params.eps, fps), None)
     order = crowd_order(sc, policy.order, env, roadmap, static=static, fps=fps, n_total=n_total, log=log)
     groups = planning_groups(sc, env, roadmap, order, static) if policy.split_groups and len(order) > 1 else [order]
     parts = _plan_groups(setup, groups, passes, policy.workers, progress, log)
@@ -142,31 +143,13 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
                        hits, misses, len(groups), time.process_time() - cpu0 + worker_cpu)
 
 
-@dataclass
-class _Setup:
-    """What every planning context of one scenario shares (read only)."""
-
-    sc: Scenario
-    graph: object
-    env: object
-    roadmap: object
-    params: SearchParams
-    policy: CrowdPolicy
-    lib: MotionLibrary
-    fps: float
-    n_total: int
-    static: object
-    still: np.ndarray
-
-
-def _context(setup: _Setup, log) -> PlanContext:
-    """A planning context with an empty space-time index and motion cache."""
+def _context(setup: PlanContext, log) -> PlanContext:
+    """``setup`` (a context without index or cache) with an empty space-time index and motion
+    cache of its own."""
     p = setup.params
-    return PlanContext(setup.sc, setup.graph, setup.env, setup.roadmap, p, setup.policy, setup.lib, setup.fps,
-                       setup.n_total, setup.static,
-                       Reservations(max(1.2, 2 * setup.lib.max_reach + 2 * (p.margin + p.seed_margin) + 0.05),
-                                    setup.n_total, len(setup.sc.characters)),
-                       setup.still, log, MotionCache() if setup.policy.reuse_motions else None)
+    return replace(setup, index=Reservations(max(1.2, 2 * setup.lib.max_reach + 2 * (p.margin + p.seed_margin) + 0.05),
+                                             setup.n_total, len(setup.sc.characters)),
+                   log=log, cache=MotionCache() if setup.policy.reuse_motions else None, handed={})
 
 
 NARROW = 1.0           # m from obstacles where walking counts as narrow (planning_groups)
@@ -202,7 +185,7 @@ def planning_groups(sc: Scenario, env, roadmap, order: list, static=None) -> lis
 _GROUP_JOB = None       # (setup, groups, passes, with_log) for the forked workers of _plan_groups
 
 
-def _plan_group(setup: _Setup, group: list, passes: int, progress, log) -> tuple:
+def _plan_group(setup: PlanContext, group: list, passes: int, progress, log) -> tuple:
     """One interaction group planned on its own (its own index and motion cache): (results,
     passes run, CPU seconds, motions reused, searched)."""
     t = time.process_time()
@@ -219,7 +202,7 @@ def _group_in_worker(gi: int):
     return out, lines
 
 
-def _plan_groups(setup: _Setup, groups: list, passes: int, workers, progress, log) -> list:
+def _plan_groups(setup: PlanContext, groups: list, passes: int, workers, progress, log) -> list:
     """Every group planned on its own, in forked worker processes when ``workers`` (None:
     the cores) allows more than one and this process may have children: the plans are the
     same bytes either way."""
