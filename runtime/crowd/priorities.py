@@ -157,10 +157,11 @@ def interaction_groups(sc, env, legs) -> list:
     P = np.concatenate(pts)
     O = np.concatenate(owner)
     pairs = cKDTree(P).query_pairs(GROUP_REACH, output_type="ndarray").reshape(-1, 2)
-    pairs = pairs[O[pairs[:, 0]] != O[pairs[:, 1]]]
-    if len(pairs) and env is not None and (len(env.polygons) or len(env.circles)):
-        pairs = pairs[env.segment_clear(P[pairs[:, 0]], P[pairs[:, 1]], 0.0)]
-    edges = np.concatenate([O[pairs], np.asarray(ties, dtype=np.int64).reshape(-1, 2)])
+    owners = O[pairs]
+    other = owners[:, 0] != owners[:, 1]
+    if env is not None and (len(env.polygons) or len(env.circles)):
+        other[other] = env.segment_clear(P[pairs[other, 0]], P[pairs[other, 1]], 0.0)
+    edges = np.concatenate([owners[other], np.asarray(ties, dtype=np.int64).reshape(-1, 2)])
     _, label = connected_components(coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)),
                                     directed=False)
     groups: dict = {}

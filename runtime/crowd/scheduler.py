@@ -169,7 +169,7 @@ def planning_groups(sc: Scenario, env, roadmap, order: list, static=None) -> lis
     groups = [sorted(g, key=rank.__getitem__) for g in interaction_groups(sc, env, legs)]
 
     def narrow(g):
-        if static is None:
+        if static is None or len(groups) == 1:
             return 0
         pts = []
         for ci in g:
