@@ -6,7 +6,7 @@ from runtime.crowd.checker import check_crowd
 from runtime.crowd.clearance import Clearance
 from runtime.crowd.environment import Environment
 from runtime.crowd.planner import CrowdPolicy
-from runtime.crowd.priorities import route_legs, interaction_groups, lattice_failures
+from runtime.crowd.priorities import coarse_groups, interaction_groups, lattice_failures, route_legs
 from runtime.crowd.scenario import parse_scenario
 from runtime.crowd.scheduler import crowd_order, plan_scenario
 
@@ -73,8 +73,26 @@ def test_groups_join_routes_in_sight_of_each_other_and_after_ties_but_not_throug
                                        _char("b", (-0.8, 10.0), (-0.8, 20.0)),
                                        _char("c", (1.6, 10.0), (1.6, 20.0), time=(15.0, 20.0)),
                                        _char("d", (20.0, -20.0), (25.0, -20.0), after="c")]})
-    groups = interaction_groups(sc, env, route_legs(sc, env, roadmap))
+    legs = route_legs(sc, env, roadmap)
+    groups = interaction_groups(sc, env, legs)
     assert groups == [[0, 1], [2, 3]]
+    # without pairing points, the wall does not part c from a: one coarse union of the three
+    # beside each other, d with its tie; among the union's members, the same groups as above
+    coarse = coarse_groups(sc, legs)
+    assert coarse == [[0, 1, 2, 3]]
+    assert interaction_groups(sc, env, legs, coarse[0]) == [[0, 1], [2, 3]]
+
+
+def test_coarse_groups_hold_every_interaction_group_and_part_routes_far_apart():
+    """Routes 3 m apart fall in neighbouring 2 m squares (one coarse union) though no two of
+    their points are within 2 m (two interaction groups); routes 9 m away are apart either way."""
+    sc = parse_scenario({"name": "coarse", "duration": 40.0, "seed": 0,
+                         "character": [_char("a", (0.0, 0.0), (0.0, 12.0)),
+                                       _char("b", (3.0, 0.0), (3.0, 12.0)),
+                                       _char("c", (12.0, 0.0), (12.0, 12.0))]})
+    legs = route_legs(sc, None, None)
+    assert interaction_groups(sc, None, legs) == [[0], [1], [2]]
+    assert coarse_groups(sc, legs) == [[0, 1], [2]]
 
 
 def test_the_lattice_order_plans_the_one_ending_in_the_door_last(default_graph):

@@ -26,8 +26,8 @@ import numpy as np
 
 from .planner.route import STEP, timed_route
 
-__all__ = ["character_legs", "route_legs", "lattice_failures", "interaction_groups", "lattice_order", "CANDIDATES", "WALK_RADIUS",
-           "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S", "MAX_GROUP"]
+__all__ = ["character_legs", "route_legs", "lattice_failures", "interaction_groups", "coarse_groups", "route_points",
+           "lattice_order", "CANDIDATES", "WALK_RADIUS", "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S", "MAX_GROUP"]
 
 CANDIDATES = ("file", "endpoints", "earliest", "longest")   # orders tried first, per group
 WALK_RADIUS = 0.45      # m: the disc of the character the stand-in is planning
@@ -133,19 +133,12 @@ def lattice_failures(sc, static, legs, order, fps: float, n_total: int) -> list:
     return failed
 
 
-def interaction_groups(sc, env, legs) -> list:
-    """Characters whose routes (start, way points, goals) come within ``GROUP_REACH`` of each
-    other with a clear line between (not through a wall), or who are tied by ``after``, as
-    groups (lists of indices, each in file order; groups ordered by their first member)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-    n = len(sc.characters)
-    names = {c.name: i for i, c in enumerate(sc.characters)}
-    ties = [(i, names[g.after["character"]]) for i, c in enumerate(sc.characters) for g in c.goals
-            if g.after is not None]
+def route_points(sc, legs, members=None) -> tuple[np.ndarray, np.ndarray]:
+    """Points every ``GROUP_SAMPLE`` along the routes (start, way points, goals) of ``members``
+    (default: everyone), and the character of each: ((n, 2), (n,))."""
     pts, owner = [], []
-    for i, c in enumerate(sc.characters):
+    for i in (range(len(sc.characters)) if members is None else members):
+        c = sc.characters[i]
         line = np.concatenate([np.asarray(c.position, float)[None]] + [way for _, way in legs[i]])
         seg = np.diff(line, axis=0)
         for a, d, L in zip(line[:-1], seg, np.hypot(*seg.T)):
@@ -154,20 +147,67 @@ def interaction_groups(sc, env, legs) -> list:
             owner.append(np.full(m, i))
         pts.append(line[-1:])
         owner.append(np.array([i]))
-    P = np.concatenate(pts)
-    O = np.concatenate(owner)
-    pairs = cKDTree(P).query_pairs(GROUP_REACH, output_type="ndarray").reshape(-1, 2)
-    owners = O[pairs]
-    other = owners[:, 0] != owners[:, 1]
-    if env is not None and (len(env.polygons) or len(env.circles)):
-        other[other] = env.segment_clear(P[pairs[other, 0]], P[pairs[other, 1]], 0.0)
-    edges = np.concatenate([owners[other], np.asarray(ties, dtype=np.int64).reshape(-1, 2)])
+    return np.concatenate(pts), np.concatenate(owner)
+
+
+def _components(n: int, edges: np.ndarray) -> list:
+    """Connected components of characters 0..n-1 joined by ``edges`` (k, 2), each in index
+    order, ordered by their first member."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
     _, label = connected_components(coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)),
                                     directed=False)
     groups: dict = {}
     for i in range(n):
         groups.setdefault(int(label[i]), []).append(i)
     return sorted(groups.values(), key=lambda g: g[0])
+
+
+def _ties(sc) -> np.ndarray:
+    names = {c.name: i for i, c in enumerate(sc.characters)}
+    return np.asarray([(i, names[g.after["character"]]) for i, c in enumerate(sc.characters) for g in c.goals
+                       if g.after is not None], dtype=np.int64).reshape(-1, 2)
+
+
+def interaction_groups(sc, env, legs, members=None) -> list:
+    """Characters whose routes (start, way points, goals) come within ``GROUP_REACH`` of each
+    other with a clear line between (not through a wall), or who are tied by ``after``, as
+    groups (lists of indices, each in file order; groups ordered by their first member).
+    ``members``: only among these (a union of whole groups, as :func:`coarse_groups` gives)."""
+    from scipy.spatial import cKDTree
+    n = len(sc.characters)
+    P, O = route_points(sc, legs, members)
+    pairs = cKDTree(P).query_pairs(GROUP_REACH, output_type="ndarray").reshape(-1, 2)
+    owners = O[pairs]
+    other = owners[:, 0] != owners[:, 1]
+    if env is not None and (len(env.polygons) or len(env.circles)):
+        other[other] = env.segment_clear(P[pairs[other, 0]], P[pairs[other, 1]], 0.0)
+    groups = _components(n, np.concatenate([owners[other], _ties(sc)]))
+    if members is None:
+        return groups
+    inside = set(int(i) for i in members)
+    return [g for g in groups if g[0] in inside]
+
+
+def coarse_groups(sc, legs) -> list:
+    """Unions of :func:`interaction_groups`, found without pairing points: characters with
+    route points in the same or neighbouring squares of side ``GROUP_REACH`` (two points that
+    close always are), or tied by ``after``. Same form as :func:`interaction_groups`."""
+    P, O = route_points(sc, legs)
+    cells = np.floor(P / GROUP_REACH).astype(np.int64)
+    cells -= cells.min(axis=0)
+    width = int(cells[:, 1].max()) + 3
+    key = (cells[:, 0] + 1) * width + cells[:, 1] + 1
+    rows = np.unique(np.stack([key, O], axis=1), axis=0)          # (cell, character), by cell
+    key_u, first = np.unique(rows[:, 0], return_index=True)
+    same = rows[1:, 0] == rows[:-1, 0]
+    edges = [np.stack([rows[1:, 1][same], rows[:-1, 1][same]], axis=1)]
+    for dx, dz in ((1, -1), (1, 0), (1, 1), (0, 1)):
+        k2 = rows[:, 0] + dx * width + dz
+        at = np.minimum(np.searchsorted(key_u, k2), len(key_u) - 1)
+        hit = key_u[at] == k2
+        edges.append(np.stack([rows[hit, 1], rows[first[at[hit]], 1]], axis=1))
+    return _components(len(sc.characters), np.concatenate(edges + [_ties(sc)]))
 
 
 def _to_front(order: list, ci: int, deps: list) -> list:

@@ -152,21 +152,29 @@ def _context(setup: PlanContext, log) -> PlanContext:
                    log=log, cache=MotionCache() if setup.policy.reuse_motions else None, handed={})
 
 
+EXACT_GROUPS_MAX = 200  # characters of a coarse group (priorities.coarse_groups) split into interaction groups
 NARROW = 1.0           # m from obstacles where walking counts as narrow (planning_groups)
 NARROW_SAMPLE = 0.25   # m between the route points counted
 
 
 def planning_groups(sc: Scenario, env, roadmap, order: list, static=None) -> list[list[int]]:
     """The scenario's interaction groups (:func:`~.priorities.interaction_groups`: characters
-    whose routes come near each other, or tied by ``after``), each in planning ``order``. The
+    whose routes come near each other, or tied by ``after``), each in planning ``order``; a
+    union of them larger than :data:`EXACT_GROUPS_MAX` (:func:`~.priorities.coarse_groups`)
+    stays one group. The
     groups come in the order worker processes take them up: the most route points within
     :data:`NARROW` of an obstacle (``static``) first -- planning time goes to doors and
     passages -- then the largest; ties by their first character in ``order``. (The order
     changes how long the planning takes, not the plans.)"""
-    from .priorities import interaction_groups, route_legs
+    from .priorities import coarse_groups, interaction_groups, route_legs
     rank = {ci: r for r, ci in enumerate(order)}
     legs = route_legs(sc, env, roadmap)
-    groups = [sorted(g, key=rank.__getitem__) for g in interaction_groups(sc, env, legs)]
+    groups = []
+    for coarse in coarse_groups(sc, legs):
+        # a large union (a grid of hundreds) stays whole: pairing its points costs more than
+        # splitting it could gain
+        groups += [coarse] if len(coarse) > EXACT_GROUPS_MAX else interaction_groups(sc, env, legs, coarse)
+    groups = [sorted(g, key=rank.__getitem__) for g in groups]
 
     def narrow(g):
         if static is None or len(groups) == 1:
