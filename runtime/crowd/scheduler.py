@@ -86,7 +86,7 @@ def plan_scenario(sc: Scenario, graph, env=None, roadmap=None, params: SearchPar
     a repaired plan is tested against all the others, before and after it in the order.
 
     With ``policy.split_groups`` each interaction group (:func:`planning_groups`: characters
-    whose routes come near each other) is planned so on its own -- in ``policy.workers``
+    whose routes come near each other) is planned that way on its own -- in ``policy.workers``
     forked processes at once -- and the groups are then merged; characters of different
     groups that meet after all (a detour) are planned again against everyone
     (:func:`mend_between_groups`). The plans do not depend on the number of workers.
@@ -161,11 +161,10 @@ def planning_groups(sc: Scenario, env, roadmap, order: list, static=None) -> lis
     """The scenario's interaction groups (:func:`~.priorities.interaction_groups`: characters
     whose routes come near each other, or tied by ``after``), each in planning ``order``; a
     union of them larger than :data:`EXACT_GROUPS_MAX` (:func:`~.priorities.coarse_groups`)
-    stays one group. The
-    groups come in the order worker processes take them up: the most route points within
-    :data:`NARROW` of an obstacle (``static``) first -- planning time goes to doors and
-    passages -- then the largest; ties by their first character in ``order``. (The order
-    changes how long the planning takes, not the plans.)"""
+    stays one group. The groups come in the order worker processes take them up: the most
+    route points within :data:`NARROW` of an obstacle (``static``) first -- planning time
+    goes to doors and passages -- then the largest; ties by their first character in
+    ``order``. (The order changes how long the planning takes, not the plans.)"""
     from .priorities import coarse_groups, interaction_groups, route_legs
     rank = {ci: r for r, ci in enumerate(order)}
     legs = route_legs(sc, env, roadmap)
