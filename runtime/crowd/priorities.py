@@ -27,7 +27,8 @@ import numpy as np
 from .planner.route import STEP, timed_route
 
 __all__ = ["character_legs", "route_legs", "lattice_failures", "interaction_groups", "coarse_groups", "route_points",
-           "lattice_order", "CANDIDATES", "WALK_RADIUS", "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S", "MAX_GROUP"]
+           "lattice_order", "CANDIDATES", "WALK_RADIUS", "STAND_RADIUS", "GROUP_REACH", "CLIMB_STEPS", "CHANGE_S",
+           "MAX_GROUP"]
 
 CANDIDATES = ("file", "endpoints", "earliest", "longest")   # orders tried first, per group
 WALK_RADIUS = 0.45      # m: the disc of the character the stand-in is planning

@@ -149,6 +149,7 @@ def resample_source(params: SearchParams, src: Source, goal_node, start: Config,
     return resample(params, src.frames, src.root, src.nff, src.nbf, src.dp, src.dh, src.N, goal_node, start,
                     src.edges, m1)
 
+
 def resample_grid(params: SearchParams, n_src: int, nff: int, nbf: int, m1: int):
     """Step 4's time warp: for each of the ``m1 + 1`` output frames, the two source frames it
     blends and the blend weight, (a, b, t), and the parts' time scales (source steps per
